@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package cofusion-vk needs to build, test and run.
+# Idempotent and non-interactive: packages already present are skipped.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config
+  # Vulkan: loader, headers, Mesa lavapipe (software driver), validation layers, shader compiler
+  libvulkan-dev vulkan-tools mesa-vulkan-drivers vulkan-validationlayers
+  glslang-tools glslang-dev spirv-tools
+  # maths, windowing, images, sensors, model files
+  libglm-dev libglfw3-dev libeigen3-dev
+  libopencv-dev libopencv-contrib-dev
+  libopenni2-dev
+  libtinygltf-dev
+  # CPU job system, CLI, JSON, compression
+  libtbb-dev libcli11-dev nlohmann-json3-dev zlib1g-dev
+  # tests: GoogleTest, a virtual X server for the viewer, screen capture
+  libgtest-dev libgmock-dev xvfb xauth x11-apps imagemagick
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+# Node.js runs the Khronos glTF validator in the tests; keep an existing install (e.g. NodeSource).
+command -v node >/dev/null 2>&1 || missing+=(nodejs)
+command -v npm >/dev/null 2>&1 || missing+=(npm)
+
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "install-deps: installing ${missing[*]}"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

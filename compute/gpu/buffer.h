@@ -1,0 +1,50 @@
+#pragma once
+// A storage buffer and its memory. Device buffers are host-mapped when their memory is
+// host-visible (lavapipe, resizable-BAR GPUs); otherwise uploads and downloads go through a
+// staging buffer. Buffers are shared_ptr-owned so a command list can keep the ones it uses alive
+// until its submission has finished on the GPU.
+#include <cstddef>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "gpu/context.h"
+
+namespace cofusion::gpu {
+
+enum class BufferUsage {
+  Device,   // working storage of kernels (device-local; mapped only if also host-visible)
+  Staging,  // host-visible, host-coherent transfer source/destination
+};
+
+class Buffer;
+using BufferPtr = std::shared_ptr<Buffer>;
+
+class Buffer {
+ public:
+  // `size_bytes` is rounded up to a multiple of 4 (and at least 4: Vulkan has no empty buffers).
+  // Throws cofusion::Error naming the buffer when the device cannot hold it.
+  static BufferPtr create(Context& ctx, size_t size_bytes, const std::string& name,
+                          BufferUsage usage = BufferUsage::Device);
+  Buffer(const Buffer&) = delete;
+  Buffer& operator=(const Buffer&) = delete;
+
+  size_t size() const { return size_; }
+  const std::string& name() const { return name_; }
+  vk::Buffer handle() const { return *buffer_; }
+  // Host pointer when mapped, nullptr otherwise.
+  void* mapped() const { return mapped_; }
+  // GPU virtual address when the device supports buffer device addresses, 0 otherwise.
+  uint64_t device_address() const { return address_; }
+
+ private:
+  Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferUsage usage);
+  std::string name_;
+  size_t size_ = 0;
+  vk::raii::Buffer buffer_{nullptr};
+  vk::raii::DeviceMemory memory_{nullptr};
+  void* mapped_ = nullptr;
+  uint64_t address_ = 0;
+};
+
+}  // namespace cofusion::gpu

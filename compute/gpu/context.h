@@ -1,0 +1,129 @@
+#pragma once
+// The Vulkan instance, the chosen physical device, the logical device and its compute queues.
+//
+// Device choice: a real GPU is preferred (discrete > integrated > virtual > CPU such as Mesa
+// lavapipe); ContextOptions::device picks one by index or by a case-insensitive name substring.
+// Queues: every queue of the compute-capable family with the most queues is created. Workers ask
+// for queue_for_worker(i): with several queues each worker gets its own, with one (lavapipe)
+// they share it; submission to a shared queue is serialised by the queue's mutex.
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "gpu/vk.h"
+
+namespace cofusion::gpu {
+
+struct ContextOptions {
+  // Enable VK_LAYER_KHRONOS_validation and a messenger. Always on in tests.
+  bool validation = false;
+  // "" = best device; a number = index in the enumeration order (see list_devices());
+  // anything else = first device whose name contains it (case-insensitive).
+  std::string device;
+  // Never map device buffers even when their memory is host-visible, so every upload/download
+  // takes the staging path that discrete GPUs need. For tests of that path on lavapipe.
+  bool force_staging = false;
+  // Called for every validation message of error severity (after it is counted and printed).
+  // Tests turn it into a test failure.
+  std::function<void(const std::string& message)> on_validation_error;
+  // Print validation warnings too (errors are always printed).
+  bool print_validation_warnings = true;
+};
+
+struct DeviceInfo {
+  uint32_t index = 0;
+  std::string name;
+  std::string type;  // "discrete", "integrated", "virtual", "cpu", "other"
+  uint32_t api_version = 0;
+  bool usable = false;        // meets our requirements (Vulkan 1.3, compute, push descriptors)
+  std::string why_unusable;   // when !usable
+};
+
+struct DeviceFeatures {
+  bool buffer_device_address = false;
+  bool shader_int64 = false;
+  bool buffer_int64_atomics = false;
+  bool shader_float_atomic_add = false;
+  uint32_t subgroup_size = 1;
+  bool subgroup_arithmetic = false;
+  uint64_t max_storage_buffer_range = 0;
+  uint64_t max_memory_allocation_size = 0;
+  uint64_t device_local_heap_bytes = 0;
+  bool device_local_memory_is_host_visible = false;
+  uint32_t max_compute_workgroup_invocations = 0;
+  float timestamp_period_ns = 0;
+};
+
+// One device queue. Submissions from several threads to the same queue are serialised by `mutex`.
+struct Queue {
+  vk::Queue handle;
+  uint32_t family = 0;
+  uint32_t index = 0;
+  std::mutex mutex;
+};
+
+class Context {
+ public:
+  explicit Context(const ContextOptions& options = {});
+  ~Context();
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+
+  // Every physical device the loader reports, with why a device cannot be used.
+  static std::vector<DeviceInfo> list_devices();
+
+  const vk::raii::Device& device() const { return device_; }
+  const vk::raii::PhysicalDevice& physical_device() const { return physical_device_; }
+  const DeviceInfo& info() const { return info_; }
+  const DeviceFeatures& features() const { return features_; }
+  const ContextOptions& options() const { return options_; }
+  // e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu, Vulkan 1.3.230], 1 compute queue"
+  std::string description() const;
+  bool is_software() const { return info_.type == "cpu"; }
+
+  uint32_t compute_queue_count() const { return static_cast<uint32_t>(queues_.size()); }
+  uint32_t compute_queue_family() const { return queue_family_; }
+  // One queue per concurrent worker where there are several; the shared one where there is one.
+  Queue& queue_for_worker(uint32_t worker) { return *queues_[worker % queues_.size()]; }
+
+  // Memory type for the requested properties, or throws naming `what`.
+  uint32_t find_memory_type(uint32_t type_bits, vk::MemoryPropertyFlags required,
+                            vk::MemoryPropertyFlags preferred, const std::string& what) const;
+
+  // Debug name shown by validation messages and tools (no-op without VK_EXT_debug_utils).
+  template <typename RaiiHandle>
+  void set_name(const RaiiHandle& handle, const std::string& name) const {
+    const auto h = *handle;  // the vk:: (non-owning) handle
+    using Handle = std::remove_const_t<decltype(h)>;
+    set_name_raw(Handle::objectType, reinterpret_cast<uint64_t>(static_cast<typename Handle::CType>(h)), name);
+  }
+  void set_name_raw(vk::ObjectType type, uint64_t handle, const std::string& name) const;
+
+  // Number of validation messages of error severity seen so far.
+  size_t validation_error_count() const { return validation_errors_.load(); }
+
+ private:
+  static VKAPI_ATTR VkBool32 VKAPI_CALL debug_callback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                       VkDebugUtilsMessageTypeFlagsEXT types,
+                                                       const VkDebugUtilsMessengerCallbackDataEXT* data,
+                                                       void* user);
+
+  ContextOptions options_;
+  vk::raii::Context loader_;
+  vk::raii::Instance instance_{nullptr};
+  vk::raii::DebugUtilsMessengerEXT messenger_{nullptr};
+  vk::raii::PhysicalDevice physical_device_{nullptr};
+  vk::raii::Device device_{nullptr};
+  DeviceInfo info_;
+  DeviceFeatures features_;
+  bool debug_utils_ = false;
+  uint32_t queue_family_ = 0;
+  std::vector<std::unique_ptr<Queue>> queues_;
+  std::atomic<size_t> validation_errors_{0};
+};
+
+}  // namespace cofusion::gpu

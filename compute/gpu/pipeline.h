@@ -1,0 +1,34 @@
+#pragma once
+// A compute pipeline built from embedded SPIR-V. Every binding is a storage buffer in set 0,
+// bound per dispatch with push descriptors (no descriptor pools to manage); parameters travel as
+// push constants.
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "gpu/context.h"
+
+namespace cofusion::gpu {
+
+class ComputePipeline {
+ public:
+  ComputePipeline(Context& ctx, const std::string& name, std::span<const uint32_t> spirv, uint32_t binding_count,
+                  uint32_t push_constant_bytes);
+  ComputePipeline(ComputePipeline&&) = default;
+
+  const std::string& name() const { return name_; }
+  vk::Pipeline handle() const { return *pipeline_; }
+  vk::PipelineLayout layout() const { return *layout_; }
+  uint32_t binding_count() const { return binding_count_; }
+  uint32_t push_constant_bytes() const { return push_constant_bytes_; }
+
+ private:
+  std::string name_;
+  uint32_t binding_count_ = 0;
+  uint32_t push_constant_bytes_ = 0;
+  vk::raii::DescriptorSetLayout set_layout_{nullptr};
+  vk::raii::PipelineLayout layout_{nullptr};
+  vk::raii::Pipeline pipeline_{nullptr};
+};
+
+}  // namespace cofusion::gpu

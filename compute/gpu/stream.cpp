@@ -1,0 +1,188 @@
+#include "gpu/stream.h"
+
+#include <cstring>
+#include <limits>
+
+namespace cofusion::gpu {
+
+void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
+                           uint32_t push_bytes, uint32_t groups_x, uint32_t groups_y, uint32_t groups_z) {
+  if (buffers.size() != pipeline.binding_count())
+    throw Error("dispatch of '" + pipeline.name() + "': " + std::to_string(buffers.size()) + " buffers for " +
+                std::to_string(pipeline.binding_count()) + " bindings");
+  if (push_bytes != pipeline.push_constant_bytes())
+    throw Error("dispatch of '" + pipeline.name() + "': " + std::to_string(push_bytes) + " bytes of parameters, expected " +
+                std::to_string(pipeline.push_constant_bytes()));
+  if (groups_x == 0 || groups_y == 0 || groups_z == 0) return;
+  std::vector<vk::DescriptorBufferInfo> infos;
+  infos.reserve(buffers.size());
+  for (const auto& b : buffers) {
+    if (!b) throw Error("dispatch of '" + pipeline.name() + "': null buffer");
+    infos.push_back({.buffer = b->handle(), .offset = 0, .range = VK_WHOLE_SIZE});
+    held_.push_back(b);
+  }
+  std::vector<vk::WriteDescriptorSet> writes;
+  for (uint32_t i = 0; i < infos.size(); ++i)
+    writes.push_back({.dstBinding = i,
+                      .descriptorCount = 1,
+                      .descriptorType = vk::DescriptorType::eStorageBuffer,
+                      .pBufferInfo = &infos[i]});
+  cmd_.bindPipeline(vk::PipelineBindPoint::eCompute, pipeline.handle());
+  cmd_.pushDescriptorSetKHR(vk::PipelineBindPoint::eCompute, pipeline.layout(), 0, writes);
+  if (push_bytes)
+    cmd_.getDispatcher()->vkCmdPushConstants(*cmd_, pipeline.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, push_bytes, push);
+  cmd_.dispatch(groups_x, groups_y, groups_z);
+}
+
+void CommandList::barrier() {
+  using S = vk::PipelineStageFlagBits2;
+  using A = vk::AccessFlagBits2;
+  vk::MemoryBarrier2 b{.srcStageMask = S::eComputeShader | S::eTransfer,
+                       .srcAccessMask = A::eShaderStorageWrite | A::eTransferWrite,
+                       .dstStageMask = S::eComputeShader | S::eTransfer,
+                       .dstAccessMask = A::eShaderStorageRead | A::eShaderStorageWrite | A::eTransferRead |
+                                        A::eTransferWrite};
+  cmd_.pipelineBarrier2(vk::DependencyInfo{.memoryBarrierCount = 1, .pMemoryBarriers = &b});
+}
+
+void CommandList::copy(const BufferPtr& src, const BufferPtr& dst, size_t bytes, size_t src_offset, size_t dst_offset) {
+  if (bytes == 0) return;
+  if (src_offset + bytes > src->size() || dst_offset + bytes > dst->size())
+    throw Error("copy of " + std::to_string(bytes) + " bytes from '" + src->name() + "' to '" + dst->name() +
+                "' is out of range");
+  cmd_.copyBuffer(src->handle(), dst->handle(), vk::BufferCopy{.srcOffset = src_offset, .dstOffset = dst_offset, .size = bytes});
+  held_.push_back(src);
+  held_.push_back(dst);
+}
+
+void CommandList::fill(const BufferPtr& dst, uint32_t value) {
+  cmd_.fillBuffer(dst->handle(), 0, VK_WHOLE_SIZE, value);
+  held_.push_back(dst);
+}
+
+Stream::Stream(Context& ctx, uint32_t worker, const std::string& name)
+    : ctx_(ctx), queue_(ctx.queue_for_worker(worker)), name_(name) {
+  pool_ = vk::raii::CommandPool(ctx.device(), vk::CommandPoolCreateInfo{
+                                                  .flags = vk::CommandPoolCreateFlagBits::eResetCommandBuffer,
+                                                  .queueFamilyIndex = queue_.family});
+  ctx.set_name(pool_, name + " command pool");
+  vk::SemaphoreTypeCreateInfo type{.semaphoreType = vk::SemaphoreType::eTimeline, .initialValue = 0};
+  timeline_ = vk::raii::Semaphore(ctx.device(), vk::SemaphoreCreateInfo{.pNext = &type});
+  ctx.set_name(timeline_, name + " timeline");
+}
+
+Stream::~Stream() {
+  try {
+    wait_idle();
+  } catch (...) {
+    // Destructors must not throw; the device is being torn down anyway.
+  }
+}
+
+CommandList Stream::begin() {
+  collect_finished();
+  vk::raii::CommandBuffer cmd{nullptr};
+  if (!recycled_.empty()) {
+    cmd = std::move(recycled_.back());
+    recycled_.pop_back();
+    cmd.reset();
+  } else {
+    vk::raii::CommandBuffers allocated(ctx_.device(), vk::CommandBufferAllocateInfo{.commandPool = *pool_,
+                                                                                     .level = vk::CommandBufferLevel::ePrimary,
+                                                                                     .commandBufferCount = 1});
+    cmd = std::move(allocated[0]);
+    ctx_.set_name(cmd, name_ + " commands");
+  }
+  cmd.begin(vk::CommandBufferBeginInfo{.flags = vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
+  return CommandList(std::move(cmd));
+}
+
+TimelinePoint Stream::submit(CommandList&& list, std::span<const TimelinePoint> waits) {
+  // Device writes become visible to host reads of mapped memory once the timeline value is seen.
+  using S = vk::PipelineStageFlagBits2;
+  using A = vk::AccessFlagBits2;
+  vk::MemoryBarrier2 to_host{.srcStageMask = S::eComputeShader | S::eTransfer,
+                             .srcAccessMask = A::eShaderStorageWrite | A::eTransferWrite,
+                             .dstStageMask = S::eHost,
+                             .dstAccessMask = A::eHostRead};
+  list.cmd_.pipelineBarrier2(vk::DependencyInfo{.memoryBarrierCount = 1, .pMemoryBarriers = &to_host});
+  list.cmd_.end();
+  const uint64_t value = next_value_ + 1;
+  std::vector<vk::SemaphoreSubmitInfo> wait_infos;
+  for (const auto& w : waits)
+    wait_infos.push_back({.semaphore = w.semaphore, .value = w.value, .stageMask = vk::PipelineStageFlagBits2::eAllCommands});
+  vk::SemaphoreSubmitInfo signal{.semaphore = *timeline_, .value = value, .stageMask = vk::PipelineStageFlagBits2::eAllCommands};
+  vk::CommandBufferSubmitInfo cmd_info{.commandBuffer = *list.cmd_};
+  vk::SubmitInfo2 submit{.waitSemaphoreInfoCount = static_cast<uint32_t>(wait_infos.size()),
+                         .pWaitSemaphoreInfos = wait_infos.data(),
+                         .commandBufferInfoCount = 1,
+                         .pCommandBufferInfos = &cmd_info,
+                         .signalSemaphoreInfoCount = 1,
+                         .pSignalSemaphoreInfos = &signal};
+  {
+    std::lock_guard lock(queue_.mutex);
+    queue_.handle.submit2(submit);
+  }
+  next_value_ = value;
+  in_flight_.push_back({value, std::move(list.cmd_), std::move(list.held_)});
+  return {*timeline_, value};
+}
+
+uint64_t Stream::completed_value() const { return timeline_.getCounterValue(); }
+
+void Stream::wait(const TimelinePoint& point) {
+  vk::SemaphoreWaitInfo info{.semaphoreCount = 1, .pSemaphores = &point.semaphore, .pValues = &point.value};
+  const vk::Result r = ctx_.device().waitSemaphores(info, std::numeric_limits<uint64_t>::max());
+  if (r != vk::Result::eSuccess) throw Error("waiting for stream '" + name_ + "' failed: " + vk::to_string(r));
+  collect_finished();
+}
+
+void Stream::wait_idle() {
+  if (next_value_ > 0) wait({*timeline_, next_value_});
+}
+
+void Stream::collect_finished() {
+  const uint64_t done = completed_value();
+  while (!in_flight_.empty() && in_flight_.front().value <= done) {
+    recycled_.push_back(std::move(in_flight_.front().cmd));
+    in_flight_.pop_front();  // releases the buffers the submission held
+  }
+}
+
+void Stream::run(const std::function<void(CommandList&)>& record) {
+  CommandList list = begin();
+  record(list);
+  wait(submit(std::move(list)));
+}
+
+void Stream::upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset) {
+  if (bytes == 0) return;
+  if (dst_offset + bytes > dst->size())
+    throw Error("upload of " + std::to_string(bytes) + " bytes into '" + dst->name() + "' (" + std::to_string(dst->size()) +
+                " bytes) is out of range");
+  wait_idle();
+  if (dst->mapped()) {
+    std::memcpy(static_cast<char*>(dst->mapped()) + dst_offset, src, bytes);
+    return;
+  }
+  auto staging = Buffer::create(ctx_, bytes, dst->name() + " upload staging", BufferUsage::Staging);
+  std::memcpy(staging->mapped(), src, bytes);
+  run([&](CommandList& cmd) { cmd.copy(staging, dst, bytes, 0, dst_offset); });
+}
+
+void Stream::download(const BufferPtr& src, void* dst, size_t bytes, size_t src_offset) {
+  if (bytes == 0) return;
+  if (src_offset + bytes > src->size())
+    throw Error("download of " + std::to_string(bytes) + " bytes from '" + src->name() + "' (" + std::to_string(src->size()) +
+                " bytes) is out of range");
+  wait_idle();
+  if (src->mapped()) {
+    std::memcpy(dst, static_cast<const char*>(src->mapped()) + src_offset, bytes);
+    return;
+  }
+  auto staging = Buffer::create(ctx_, bytes, src->name() + " download staging", BufferUsage::Staging);
+  run([&](CommandList& cmd) { cmd.copy(src, staging, bytes, src_offset, 0); });
+  std::memcpy(dst, staging->mapped(), bytes);
+}
+
+}  // namespace cofusion::gpu

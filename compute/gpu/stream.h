@@ -1,0 +1,119 @@
+#pragma once
+// Recording and submission of compute work.
+//
+// A Stream is one worker's lane to the GPU: a command pool, the queue the Context hands to that
+// worker, and a timeline semaphore. Every submission signals the next timeline value; other
+// streams wait on (semaphore, value) points, which is how cross-model dependencies are expressed.
+// A CommandList keeps every buffer it references alive (shared_ptr) and the Stream holds the list
+// until the GPU has passed its timeline value, so nothing is freed while the GPU may still use it.
+//
+// Thread safety: a Stream (and its CommandLists) belongs to one thread at a time. Several streams
+// may submit concurrently from different threads, also when they share one VkQueue.
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <initializer_list>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "gpu/buffer.h"
+#include "gpu/pipeline.h"
+
+namespace cofusion::gpu {
+
+struct TimelinePoint {
+  vk::Semaphore semaphore;
+  uint64_t value = 0;
+};
+
+// Number of workgroups needed to cover `items` with groups of `group_size`.
+constexpr uint32_t group_count(uint32_t items, uint32_t group_size) { return (items + group_size - 1) / group_size; }
+
+class CommandList {
+ public:
+  CommandList(CommandList&&) = default;
+  CommandList& operator=(CommandList&&) = default;
+
+  // Binds `buffers` to bindings 0..n-1 of `pipeline`, pushes `push_bytes` of constants and
+  // dispatches. A dispatch with zero groups is skipped (empty images are legal inputs).
+  void dispatch(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
+                uint32_t push_bytes, uint32_t groups_x, uint32_t groups_y = 1, uint32_t groups_z = 1);
+  template <typename Params>
+  void dispatch(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const Params& params,
+                uint32_t groups_x, uint32_t groups_y = 1, uint32_t groups_z = 1) {
+    dispatch(pipeline, buffers, &params, sizeof(Params), groups_x, groups_y, groups_z);
+  }
+  // Makes every earlier compute/transfer write visible to every later compute/transfer access.
+  void barrier();
+  void copy(const BufferPtr& src, const BufferPtr& dst, size_t bytes, size_t src_offset = 0, size_t dst_offset = 0);
+  // Fills the whole buffer with a 32-bit pattern.
+  void fill(const BufferPtr& dst, uint32_t value);
+  // Keeps `object` alive until this list has finished executing.
+  void hold(std::shared_ptr<const void> object) { held_.push_back(std::move(object)); }
+  vk::CommandBuffer handle() const { return *cmd_; }
+
+ private:
+  friend class Stream;
+  explicit CommandList(vk::raii::CommandBuffer cmd) : cmd_(std::move(cmd)) {}
+  vk::raii::CommandBuffer cmd_;
+  std::vector<std::shared_ptr<const void>> held_;
+};
+
+class Stream {
+ public:
+  // Uses ctx.queue_for_worker(worker): its own queue where the device has several.
+  Stream(Context& ctx, uint32_t worker, const std::string& name);
+  ~Stream();
+  Stream(const Stream&) = delete;
+  Stream& operator=(const Stream&) = delete;
+
+  CommandList begin();
+  // Submits `list`, which first waits for every point in `waits`; returns the point that signals
+  // when it has finished.
+  TimelinePoint submit(CommandList&& list, std::span<const TimelinePoint> waits = {});
+  void wait(const TimelinePoint& point);
+  void wait_idle();
+  uint64_t completed_value() const;
+  TimelinePoint last_submitted() const { return {*timeline_, next_value_}; }
+
+  // Record, submit and wait: for synchronous work (tests, set-up, benchmarks).
+  void run(const std::function<void(CommandList&)>& record);
+  // Synchronous transfers. They first wait for this stream's earlier work; mapped buffers are
+  // copied directly, others through a temporary staging buffer.
+  void upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset = 0);
+  void download(const BufferPtr& src, void* dst, size_t bytes, size_t src_offset = 0);
+  template <typename T>
+  void upload(const BufferPtr& dst, std::span<const T> data) {
+    upload(dst, data.data(), data.size_bytes());
+  }
+  template <typename T>
+  std::vector<T> download(const BufferPtr& src, size_t count) {
+    std::vector<T> out(count);
+    download(src, out.data(), count * sizeof(T));
+    return out;
+  }
+
+  Context& context() const { return ctx_; }
+  const std::string& name() const { return name_; }
+
+ private:
+  struct InFlight {
+    uint64_t value;
+    vk::raii::CommandBuffer cmd;
+    std::vector<std::shared_ptr<const void>> held;
+  };
+  void collect_finished();
+
+  Context& ctx_;
+  Queue& queue_;
+  std::string name_;
+  vk::raii::CommandPool pool_{nullptr};
+  vk::raii::Semaphore timeline_{nullptr};
+  uint64_t next_value_ = 0;
+  std::deque<InFlight> in_flight_;
+  std::vector<vk::raii::CommandBuffer> recycled_;
+};
+
+}  // namespace cofusion::gpu

@@ -1,0 +1,130 @@
+#include "kernels/preprocess.h"
+
+#include "kernels/image.h"
+
+#include "embedded_shaders.h"
+#include "shared/host_device.h"
+
+namespace cofusion::kernels {
+namespace L = gpu_layout;
+using gpu::group_count;
+
+namespace {
+uint32_t groups(int n) { return group_count(static_cast<uint32_t>(n), COFUSION_TILE); }
+size_t pixels(int w, int h) { return static_cast<size_t>(w) * static_cast<size_t>(h); }
+}  // namespace
+
+FramePyramid FramePyramid::allocate(gpu::Context& ctx, const Intrinsics& intrinsics, int level_count,
+                                    const std::string& name) {
+  if (!intrinsics.plausible()) throw Error(name + ": implausible intrinsics " + intrinsics.to_string());
+  if (level_count < 1) throw Error(name + ": pyramid needs at least one level");
+  FramePyramid f;
+  const size_t n0 = pixels(intrinsics.width, intrinsics.height);
+  f.raw_depth = gpu::Buffer::create(ctx, n0 * sizeof(uint16_t), name + " raw depth");
+  f.rgb = gpu::Buffer::create(ctx, n0 * 3, name + " rgb");
+  f.depth_raw_m = gpu::Buffer::create(ctx, n0 * sizeof(float), name + " depth before filter");
+  for (int l = 0; l < level_count; ++l) {
+    Level level;
+    level.intrinsics = intrinsics.at_level(l);
+    level.width = level.intrinsics.width;
+    level.height = level.intrinsics.height;
+    const size_t n = pixels(level.width, level.height);
+    const std::string prefix = name + " L" + std::to_string(l) + " ";
+    level.depth_m = gpu::Buffer::create(ctx, n * sizeof(float), prefix + "depth");
+    level.intensity = gpu::Buffer::create(ctx, n * sizeof(float), prefix + "intensity");
+    level.vertex = gpu::Buffer::create(ctx, n * 4 * sizeof(float), prefix + "vertex");
+    level.normal = gpu::Buffer::create(ctx, n * 4 * sizeof(float), prefix + "normal");
+    level.gradient = gpu::Buffer::create(ctx, n * 2 * sizeof(float), prefix + "gradient");
+    f.levels.push_back(std::move(level));
+  }
+  return f;
+}
+
+Preprocessor::Preprocessor(gpu::Context& ctx)
+    : depth_to_metres_(ctx, "depth_to_metres", shaders::depth_to_metres_comp(), 2, sizeof(L::DepthToMetresParams)),
+      bilateral_(ctx, "bilateral_depth", shaders::bilateral_depth_comp(), 2, sizeof(L::BilateralParams)),
+      depth_pyramid_(ctx, "depth_pyramid", shaders::depth_pyramid_comp(), 2, sizeof(L::DownsampleParams)),
+      intensity_pyramid_(ctx, "intensity_pyramid", shaders::intensity_pyramid_comp(), 2, sizeof(L::DownsampleParams)),
+      rgb_to_intensity_(ctx, "rgb_to_intensity", shaders::rgb_to_intensity_comp(), 2, sizeof(L::IntensityParams)),
+      vertex_normal_(ctx, "vertex_normal_map", shaders::vertex_normal_map_comp(), 3, sizeof(L::VertexNormalParams)),
+      gradient_(ctx, "intensity_gradient", shaders::intensity_gradient_comp(), 2, sizeof(L::GradientParams)) {}
+
+void Preprocessor::depth_to_metres(gpu::CommandList& cmd, const gpu::BufferPtr& raw, const gpu::BufferPtr& depth_m,
+                                   int width, int height, float metres_per_unit, float min_depth_m,
+                                   float max_depth_m) const {
+  const L::DepthToMetresParams p{static_cast<uint32_t>(width), static_cast<uint32_t>(height), metres_per_unit,
+                                 min_depth_m, max_depth_m};
+  cmd.dispatch(depth_to_metres_, {raw, depth_m}, p, groups(width), groups(height));
+}
+
+void Preprocessor::bilateral_depth(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                                   int width, int height, int radius_px, float sigma_space_px,
+                                   float sigma_depth_m) const {
+  const L::BilateralParams p{static_cast<uint32_t>(width), static_cast<uint32_t>(height), radius_px, sigma_space_px,
+                             sigma_depth_m};
+  cmd.dispatch(bilateral_, {src, dst}, p, groups(width), groups(height));
+}
+
+void Preprocessor::downsample_depth(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                                    int src_width, int src_height, float max_depth_diff_m) const {
+  const L::DownsampleParams p{static_cast<uint32_t>(src_width), static_cast<uint32_t>(src_height),
+                              static_cast<uint32_t>(half_size(src_width)), static_cast<uint32_t>(half_size(src_height)),
+                              max_depth_diff_m};
+  cmd.dispatch(depth_pyramid_, {src, dst}, p, groups(half_size(src_width)), groups(half_size(src_height)));
+}
+
+void Preprocessor::downsample_intensity(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                                        int src_width, int src_height) const {
+  const L::DownsampleParams p{static_cast<uint32_t>(src_width), static_cast<uint32_t>(src_height),
+                              static_cast<uint32_t>(half_size(src_width)), static_cast<uint32_t>(half_size(src_height)),
+                              0.0f};
+  cmd.dispatch(intensity_pyramid_, {src, dst}, p, groups(half_size(src_width)), groups(half_size(src_height)));
+}
+
+void Preprocessor::rgb_to_intensity(gpu::CommandList& cmd, const gpu::BufferPtr& rgb, const gpu::BufferPtr& intensity,
+                                    int width, int height) const {
+  const L::IntensityParams p{static_cast<uint32_t>(width), static_cast<uint32_t>(height)};
+  cmd.dispatch(rgb_to_intensity_, {rgb, intensity}, p, groups(width), groups(height));
+}
+
+void Preprocessor::vertex_normal_map(gpu::CommandList& cmd, const gpu::BufferPtr& depth_m, const gpu::BufferPtr& vertex,
+                                     const gpu::BufferPtr& normal, const Intrinsics& k) const {
+  const L::VertexNormalParams p{static_cast<uint32_t>(k.width), static_cast<uint32_t>(k.height),
+                                static_cast<float>(k.fx),     static_cast<float>(k.fy),
+                                static_cast<float>(k.cx),     static_cast<float>(k.cy)};
+  cmd.dispatch(vertex_normal_, {depth_m, vertex, normal}, p, groups(k.width), groups(k.height));
+}
+
+void Preprocessor::intensity_gradient(gpu::CommandList& cmd, const gpu::BufferPtr& intensity,
+                                      const gpu::BufferPtr& gradient, int width, int height) const {
+  const L::GradientParams p{static_cast<uint32_t>(width), static_cast<uint32_t>(height)};
+  cmd.dispatch(gradient_, {intensity, gradient}, p, groups(width), groups(height));
+}
+
+void Preprocessor::record_frame(gpu::CommandList& cmd, FramePyramid& f, float metres_per_unit,
+                                const PreprocessParams& params) const {
+  auto& l0 = f.levels[0];
+  // Level 0: metric depth (filtered) and intensity are independent, so no barrier between them.
+  depth_to_metres(cmd, f.raw_depth, params.bilateral ? f.depth_raw_m : l0.depth_m, l0.width, l0.height,
+                  metres_per_unit, params.min_depth_m, params.max_depth_m);
+  rgb_to_intensity(cmd, f.rgb, l0.intensity, l0.width, l0.height);
+  cmd.barrier();
+  if (params.bilateral) {
+    bilateral_depth(cmd, f.depth_raw_m, l0.depth_m, l0.width, l0.height, params.bilateral_radius_px,
+                    params.bilateral_sigma_space_px, params.bilateral_sigma_depth_m);
+    cmd.barrier();
+  }
+  for (size_t l = 1; l < f.levels.size(); ++l) {
+    const auto& src = f.levels[l - 1];
+    downsample_depth(cmd, src.depth_m, f.levels[l].depth_m, src.width, src.height, params.pyramid_max_depth_diff_m);
+    downsample_intensity(cmd, src.intensity, f.levels[l].intensity, src.width, src.height);
+    cmd.barrier();
+  }
+  for (auto& level : f.levels) {
+    vertex_normal_map(cmd, level.depth_m, level.vertex, level.normal, level.intrinsics);
+    intensity_gradient(cmd, level.intensity, level.gradient, level.width, level.height);
+  }
+  cmd.barrier();
+}
+
+}  // namespace cofusion::kernels

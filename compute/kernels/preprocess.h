@@ -1,0 +1,68 @@
+#pragma once
+// GPU preprocessing of an RGB-D frame into the inputs of tracking: metric depth (cut off and
+// bilateral-filtered), 4-level pyramids of depth and intensity, vertex and normal maps and
+// intensity gradients at every level. Each step is one kernel (shaders/*.comp) with a CPU
+// reference in preprocess_reference.h.
+#include <cstdint>
+#include <vector>
+
+#include "common/intrinsics.h"
+#include "gpu/stream.h"
+#include "kernels/preprocess_params.h"
+
+namespace cofusion::kernels {
+
+// GPU buffers of one frame. Level 0 is the input resolution.
+struct FramePyramid {
+  struct Level {
+    int width = 0;
+    int height = 0;
+    Intrinsics intrinsics;
+    gpu::BufferPtr depth_m;    // float[]; level 0: after the bilateral filter
+    gpu::BufferPtr intensity;  // float[] in [0, 255]
+    gpu::BufferPtr vertex;     // vec4[] camera frame, metres
+    gpu::BufferPtr normal;     // vec4[]
+    gpu::BufferPtr gradient;   // vec2[] dI/dx, dI/dy
+  };
+  gpu::BufferPtr raw_depth;     // uint16 units (packed), level-0 size
+  gpu::BufferPtr rgb;           // RGB8 bytes, level-0 size
+  gpu::BufferPtr depth_raw_m;   // float metres before the bilateral filter
+  std::vector<Level> levels;
+
+  static FramePyramid allocate(gpu::Context& ctx, const Intrinsics& intrinsics, int levels, const std::string& name);
+};
+
+class Preprocessor {
+ public:
+  explicit Preprocessor(gpu::Context& ctx);
+
+  // Single kernels (record into `cmd`; the caller places barriers between dependent steps).
+  void depth_to_metres(gpu::CommandList& cmd, const gpu::BufferPtr& raw, const gpu::BufferPtr& depth_m, int width,
+                       int height, float metres_per_unit, float min_depth_m, float max_depth_m) const;
+  void bilateral_depth(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, int width, int height,
+                       int radius_px, float sigma_space_px, float sigma_depth_m) const;
+  void downsample_depth(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, int src_width,
+                        int src_height, float max_depth_diff_m) const;
+  void downsample_intensity(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, int src_width,
+                            int src_height) const;
+  void rgb_to_intensity(gpu::CommandList& cmd, const gpu::BufferPtr& rgb, const gpu::BufferPtr& intensity, int width,
+                        int height) const;
+  void vertex_normal_map(gpu::CommandList& cmd, const gpu::BufferPtr& depth_m, const gpu::BufferPtr& vertex,
+                         const gpu::BufferPtr& normal, const Intrinsics& intrinsics) const;
+  void intensity_gradient(gpu::CommandList& cmd, const gpu::BufferPtr& intensity, const gpu::BufferPtr& gradient,
+                          int width, int height) const;
+
+  // The whole chain for a frame whose raw_depth and rgb buffers are filled.
+  void record_frame(gpu::CommandList& cmd, FramePyramid& frame, float metres_per_unit, const PreprocessParams& params) const;
+
+ private:
+  gpu::ComputePipeline depth_to_metres_;
+  gpu::ComputePipeline bilateral_;
+  gpu::ComputePipeline depth_pyramid_;
+  gpu::ComputePipeline intensity_pyramid_;
+  gpu::ComputePipeline rgb_to_intensity_;
+  gpu::ComputePipeline vertex_normal_;
+  gpu::ComputePipeline gradient_;
+};
+
+}  // namespace cofusion::kernels

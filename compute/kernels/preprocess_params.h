@@ -1,0 +1,22 @@
+#pragma once
+// Parameters of frame preprocessing (the inputs of tracking). Units in the names; defaults
+// follow KinectFusion / ElasticFusion practice for Kinect-class sensors.
+
+namespace cofusion::kernels {
+
+struct PreprocessParams {
+  // Depth readings outside [min_depth_m, max_depth_m] are dropped (the depth cut-off).
+  float min_depth_m = 0.3f;
+  float max_depth_m = 5.0f;
+  // Bilateral filter of depth before vertex/normal estimation; off = raw depth.
+  bool bilateral = true;
+  int bilateral_radius_px = 2;           // window (2r+1)^2
+  float bilateral_sigma_space_px = 2.0f; // spatial Gaussian
+  float bilateral_sigma_depth_m = 0.03f; // range Gaussian: about Kinect noise at 2.5 m
+  // Coarse-to-fine pyramid: level 0 is the input resolution, each further level halves it.
+  int pyramid_levels = 4;
+  // Depth downsampling ignores samples farther than this from the block's first valid one.
+  float pyramid_max_depth_diff_m = 0.1f;
+};
+
+}  // namespace cofusion::kernels
