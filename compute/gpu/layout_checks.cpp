@@ -12,4 +12,15 @@ static_assert(sizeof(IntensityParams) == 8);
 static_assert(sizeof(VertexNormalParams) == 24 && offsetof(VertexNormalParams, cy) == 20);
 static_assert(sizeof(GradientParams) == 8);
 static_assert(sizeof(TestFillParams) == 8);
+static_assert(sizeof(SplatParams) == 96 && offsetof(SplatParams, fx) == 48 && offsetof(SplatParams, footprint_px) == 92);
+static_assert(sizeof(ResolveParams) == 80 && offsetof(ResolveParams, width) == 64);
+static_assert(sizeof(FuseParams) == 112 && offsetof(FuseParams, fx) == 48 && offsetof(FuseParams, label) == 104);
+// Vulkan guarantees 128 bytes of push constants.
+static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128);
+static_assert(sizeof(CleanupParams) == 96 && offsetof(CleanupParams, free_space_penalty) == 92);
+static_assert(sizeof(Surfel) == 48 && offsetof(Surfel, nx) == 16 && offsetof(Surfel, colour_rgba8) == 32);
+static_assert(sizeof(IcpRgbReduceParams) == 88 && offsetof(IcpRgbReduceParams, fx) == 48 &&
+              offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, use_photometric) == 84);
+static_assert(ICP_RGB_PARTIAL_VALUES == 2 * ICP_RGB_TERM_VALUES + 1 && ICP_RGB_PARTIAL_VALUES <= ICP_RGB_PARTIAL_STRIDE);
+static_assert(ICP_RGB_GROUP_SIZE / ICP_RGB_MAX_SUBGROUPS == 4);
 }  // namespace cofusion::gpu_layout

@@ -2,6 +2,8 @@
 
 #include "kernels/image.h"
 
+#include <cmath>
+
 #include "embedded_shaders.h"
 #include "shared/host_device.h"
 
@@ -38,6 +40,18 @@ FramePyramid FramePyramid::allocate(gpu::Context& ctx, const Intrinsics& intrins
     f.levels.push_back(std::move(level));
   }
   return f;
+}
+
+void FramePyramid::upload(gpu::Stream& stream, const float* depth_m, const uint8_t* rgb8) const {
+  const size_t n = pixels(levels.at(0).width, levels.at(0).height);
+  std::vector<uint16_t> units(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float u = depth_m[i] / kUploadMetresPerUnit;
+    // NaN, negative and out-of-range readings become "no reading".
+    units[i] = (u >= 0.5f && u < 65535.0f) ? static_cast<uint16_t>(std::lround(u)) : 0;
+  }
+  stream.upload(raw_depth, units.data(), n * sizeof(uint16_t));
+  stream.upload(rgb, rgb8, n * 3);
 }
 
 Preprocessor::Preprocessor(gpu::Context& ctx)

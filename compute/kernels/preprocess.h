@@ -30,6 +30,13 @@ struct FramePyramid {
   std::vector<Level> levels;
 
   static FramePyramid allocate(gpu::Context& ctx, const Intrinsics& intrinsics, int levels, const std::string& name);
+
+  // Depth travels to the GPU as 16-bit units of 0.2 mm (TUM's 1/5000 m): half the bytes of
+  // float, and the quantisation is far below any depth sensor's noise. Range: up to 13.1 m.
+  static constexpr float kUploadMetresPerUnit = 1.0f / 5000.0f;
+  // Uploads level-0 inputs: `depth_m` (width*height floats, metres; 0, NaN, negative = no
+  // reading) and `rgb8` (width*height*3 bytes). Synchronous on `stream`.
+  void upload(gpu::Stream& stream, const float* depth_m, const uint8_t* rgb8) const;
 };
 
 class Preprocessor {

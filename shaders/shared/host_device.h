@@ -75,11 +75,140 @@ struct GradientParams {
   uint height;
 };
 
+// ---- surfel models ---------------------------------------------------------------------------
+// One surfel of a model, in the model's own frame (the paper's tuple: position, normal, colour,
+// weight/confidence, radius, creation and last-seen timestamps). 48 bytes, std430-compatible.
+struct Surfel {
+  float px, py, pz;      // position, metres, model frame
+  float confidence;      // accumulated fusion weight
+  float nx, ny, nz;      // unit normal, model frame
+  float radius_m;        // disc radius
+  uint colour_rgba8;     // R in the low byte
+  int created_frame;     // frame index when first fused
+  int last_seen_frame;   // frame index of the last fusion
+  uint flags;            // reserved for lifecycle bits (e.g. marked for removal)
+};
+
+// ---- splat_surfels.comp: project a model's surfels into a view, 64-bit atomicMin of
+// (depth bits << 32 | surfel index) per pixel; splat_resolve.comp turns the winners into maps.
+#define SPLAT_BINDING_SURFELS 0   // Surfel[]
+#define SPLAT_BINDING_DEPTH_INDEX 1  // uint64 as uvec2[] (lo = index, hi = depth bits); all ones = empty
+struct SplatParams {
+  float T_camera_model[12];   // row-major 3x4: camera-frame point = T * model-frame point
+  float fx, fy, cx, cy;       // of the full-resolution camera
+  uint width, height;         // of the target grid (full resolution * grid_scale)
+  uint surfel_count;
+  float min_confidence;       // surfels below this confidence are skipped ...
+  int frame;                  // ... unless created within the last recent_window_frames
+  int recent_window_frames;
+  uint grid_scale;            // 1 for prediction, 4 for fusion's supersampled index map
+  uint footprint_px;          // half-size of the square each surfel covers (0 = one pixel)
+};
+
+#define RESOLVE_BINDING_SURFELS 0
+#define RESOLVE_BINDING_DEPTH_INDEX 1
+#define RESOLVE_BINDING_VERTEX 2     // vec4[] camera frame, w = 1 valid
+#define RESOLVE_BINDING_NORMAL 3     // vec4[]
+#define RESOLVE_BINDING_INTENSITY 4  // float[] [0, 255]
+#define RESOLVE_BINDING_INDEX 5      // uint[] surfel index, 0xFFFFFFFF = none
+struct ResolveParams {
+  float T_camera_model[12];
+  float fx, fy, cx, cy;
+  uint width, height;
+  uint pad0, pad1;
+};
+
+// ---- subsample_prediction.comp: predicted maps of level l+1 from level l (pixel (2x, 2y)) ----
+#define SUBSAMPLE_BINDING_SRC_VERTEX 0
+#define SUBSAMPLE_BINDING_SRC_NORMAL 1
+#define SUBSAMPLE_BINDING_SRC_INTENSITY 2
+#define SUBSAMPLE_BINDING_DST_VERTEX 3
+#define SUBSAMPLE_BINDING_DST_NORMAL 4
+#define SUBSAMPLE_BINDING_DST_INTENSITY 5
+struct SubsampleParams {
+  uint src_width, src_height, dst_width, dst_height;
+};
+
+// ---- fuse_associate.comp / fuse_update.comp: projective data association and fusion --------
+#define FUSE_BINDING_SURFELS 0
+#define FUSE_BINDING_INDEX_MAP 1   // supersampled depth/index map (uvec2[]) from splat_surfels
+#define FUSE_BINDING_VERTEX 2      // live vec4[] camera frame
+#define FUSE_BINDING_NORMAL 3      // live vec4[]
+#define FUSE_BINDING_RGB 4         // live RGB8 bytes packed in uint[]
+#define FUSE_BINDING_ASSOC 5       // uint[] per live pixel: surfel index, 0xFFFFFFFF none, 0xFFFFFFFE skip
+#define FUSE_BINDING_CLAIM 6       // uint[] per surfel: lowest live pixel index associated
+#define FUSE_BINDING_COUNTER 7     // uint[4]: [0] surfel count (new surfels appended atomically)
+#define FUSE_BINDING_LABELS 8      // uint[] per live pixel: model label (used when use_labels)
+#define FUSE_NO_SURFEL 0xFFFFFFFFu
+#define FUSE_SKIP_PIXEL 0xFFFFFFFEu
+struct FuseParams {
+  float T_camera_model[12];   // current pose of the model in the camera (inverted in the shader)
+  float fx, fy, cx, cy;
+  uint width, height;         // live image
+  uint grid_scale;            // of the index map
+  uint surfel_count;          // before this frame's new surfels
+  uint capacity;              // of the surfel buffer
+  int frame;
+  float max_depth_diff_rel;   // association: |z_surfel - z_live| <= max_depth_diff_rel * z_live + 0.005
+  float min_normal_dot;       // association: cos(max normal angle)
+  float max_radius_growth;    // merge position/normal only if live radius <= this * surfel radius
+  uint use_labels;            // 1: only pixels whose label == label are fused
+  uint label;
+  uint pad0;
+};
+
+// ---- surfel_cleanup.comp: drop unstable / free-space-violating surfels, compact the rest ----
+#define CLEANUP_BINDING_SRC 0
+#define CLEANUP_BINDING_DST 1
+#define CLEANUP_BINDING_DEPTH 2     // live depth (metres) at full resolution
+#define CLEANUP_BINDING_COUNTER 3   // uint[4]: [0] count to scan, [1] kept count (atomic append into DST)
+struct CleanupParams {
+  float T_camera_model[12];
+  float fx, fy, cx, cy;
+  uint width, height;
+  uint surfel_count;             // upper bound of counter[0] (the dispatch size)
+  int frame;
+  float stable_confidence;       // surfels at or above are stable
+  int unstable_window_frames;    // unstable surfels older than this are removed
+  float free_space_margin_rel;   // a surfel (this * live depth) in front of the live surface is in free space
+  float free_space_penalty;      // confidence removed per free-space violation
+};
+
 // ---- test_fill.comp: used by the compute-core tests only -------------------------------------
 #define TEST_FILL_BINDING_DST 0
 struct TestFillParams {
   uint count;
   uint value_offset;  // dst[i] = i + value_offset
+};
+
+// ---- icp_rgb_reduce.comp: one Gauss-Newton iteration of frame-to-model tracking -------------
+// Each workgroup loops over the live pixels (grid-stride) and writes its partial sums:
+//   [0, 29)  ICP term (point-to-plane, metres), [29, 58) photometric term (intensity / 255),
+//   [58]     live pixels with a valid vertex and normal.
+// Each 29-value term: the 21 entries of the upper triangle of J^T J (row-major: (0,0), (0,1) ..
+// (0,5), (1,1) .. (5,5)), the 6 entries of J^T r, sum r^2 and the number of residuals. J is the
+// derivative with respect to a left-composed twist (v, w) (see compute/common/se3.h).
+#define ICP_RGB_BINDING_LIVE_VERTEX 0     // vec4[] live camera frame, metres, w = 1 valid
+#define ICP_RGB_BINDING_LIVE_NORMAL 1     // vec4[] w = 1 valid
+#define ICP_RGB_BINDING_LIVE_INTENSITY 2  // float[] [0, 255]
+#define ICP_RGB_BINDING_REF_VERTEX 3      // vec4[] reference camera frame, metres, w = 1 valid
+#define ICP_RGB_BINDING_REF_NORMAL 4      // vec4[] w = 1 valid
+#define ICP_RGB_BINDING_REF_INTENSITY 5   // float[] [0, 255]
+#define ICP_RGB_BINDING_REF_GRADIENT 6    // vec2[] d intensity / d pixel, [0, 255] per pixel
+#define ICP_RGB_BINDING_PARTIALS 7        // float[workgroups * ICP_RGB_PARTIAL_STRIDE]
+#define ICP_RGB_GROUP_SIZE 256            // invocations per workgroup
+#define ICP_RGB_TERM_VALUES 29            // values per term (see above)
+#define ICP_RGB_PARTIAL_VALUES 59         // 2 terms + the valid live pixel count
+#define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup in PARTIALS
+#define ICP_RGB_MAX_SUBGROUPS 64          // shared memory holds this many subgroups: subgroup size >= 4
+struct IcpRgbReduceParams {
+  float T_reference_live[12];  // row-major 3x4 [R | t]: reference-frame point = T * live-frame point
+  float fx, fy, cx, cy;        // intrinsics of this pyramid level (live and reference alike), pixels
+  uint width, height;          // of this level (live and reference alike)
+  float max_distance_m;        // ICP: |T v_live - v_ref| above this is no correspondence
+  float min_normal_cos;        // ICP: cos of the largest angle between R n_live and n_ref
+  float max_intensity_diff;    // photometric: |r| above this (intensity / 255) is an outlier
+  uint use_photometric;        // 0: the photometric sums stay zero
 };
 
 #ifdef __cplusplus

@@ -1,0 +1,250 @@
+#include "slam/surfel_model.h"
+
+#include <cmath>
+
+#include "embedded_shaders.h"
+#include "shared/host_device.h"
+
+namespace cofusion::slam {
+namespace L = gpu_layout;
+using gpu::group_count;
+
+void to_rows(const Eigen::Isometry3d& T, float out[12]) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out[r * 4 + c] = static_cast<float>(T.linear()(r, c));
+    out[r * 4 + 3] = static_cast<float>(T.translation()(r));
+  }
+}
+
+namespace {
+uint32_t tiles(int n) { return group_count(static_cast<uint32_t>(n), COFUSION_TILE); }
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+SurfelModel::SurfelModel(gpu::Context& ctx, int id, unsigned initial_capacity) : ctx_(ctx), id_(id) {
+  const uint64_t range = ctx.features().max_storage_buffer_range;
+  max_capacity_ = static_cast<unsigned>(std::min<uint64_t>(range / sizeof(Surfel), 1u << 30));
+  capacity_ = std::min(std::max(initial_capacity, 1024u), max_capacity_);
+  const std::string name = "model " + std::to_string(id);
+  surfels_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(Surfel), name + " surfels");
+  scratch_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(Surfel), name + " surfels (compaction)");
+  claim_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(uint32_t), name + " claims");
+  counter_ = gpu::Buffer::create(ctx, 4 * sizeof(uint32_t), name + " counter");
+}
+
+void SurfelModel::reserve(gpu::Stream& stream, unsigned needed) {
+  if (needed <= capacity_) return;
+  if (needed > max_capacity_)
+    throw Error("model " + std::to_string(id_) + " needs room for " + std::to_string(needed) +
+                " surfels; this device holds at most " + std::to_string(max_capacity_) +
+                " per model (maxStorageBufferRange " + std::to_string(ctx_.features().max_storage_buffer_range) +
+                " bytes)");
+  unsigned capacity = capacity_;
+  while (capacity < needed) capacity = static_cast<unsigned>(std::min<uint64_t>(uint64_t{capacity} * 2, max_capacity_));
+  const std::string name = "model " + std::to_string(id_);
+  auto surfels = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(Surfel), name + " surfels");
+  stream.run([&](gpu::CommandList& cmd) { cmd.copy(surfels_, surfels, size_t{count_} * sizeof(Surfel)); });
+  surfels_ = surfels;
+  scratch_ = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(Surfel), name + " surfels (compaction)");
+  claim_ = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(uint32_t), name + " claims");
+  capacity_ = capacity;
+}
+
+std::vector<Surfel> SurfelModel::download(gpu::Stream& stream) const {
+  std::vector<Surfel> out(count_);
+  stream.download(surfels_, out.data(), out.size() * sizeof(Surfel));
+  return out;
+}
+
+void SurfelModel::upload(gpu::Stream& stream, const std::vector<Surfel>& surfels) {
+  reserve(stream, static_cast<unsigned>(surfels.size()));
+  stream.upload(surfels_, surfels.data(), surfels.size() * sizeof(Surfel));
+  count_ = static_cast<unsigned>(surfels.size());
+}
+
+// ---------------------------------------------------------------------------------------------
+ModelPrediction ModelPrediction::allocate(gpu::Context& ctx, const Intrinsics& intrinsics, int level_count,
+                                          const std::string& name) {
+  ModelPrediction p;
+  for (int l = 0; l < level_count; ++l) {
+    kernels::FramePyramid::Level level;
+    level.intrinsics = intrinsics.at_level(l);
+    level.width = level.intrinsics.width;
+    level.height = level.intrinsics.height;
+    const size_t n = size_t(level.width) * level.height;
+    const std::string prefix = name + " L" + std::to_string(l) + " ";
+    level.vertex = gpu::Buffer::create(ctx, n * 16, prefix + "vertex");
+    level.normal = gpu::Buffer::create(ctx, n * 16, prefix + "normal");
+    level.intensity = gpu::Buffer::create(ctx, n * 4, prefix + "intensity");
+    level.gradient = gpu::Buffer::create(ctx, n * 8, prefix + "gradient");
+    p.levels.push_back(std::move(level));
+  }
+  const size_t n0 = size_t(intrinsics.width) * intrinsics.height;
+  p.depth_index = gpu::Buffer::create(ctx, n0 * 8, name + " depth/index");
+  p.index_map = gpu::Buffer::create(ctx, n0 * 4, name + " index map");
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor& preprocessor)
+    : ctx_(ctx),
+      preprocessor_(preprocessor),
+      splat_(ctx, "splat_surfels", shaders::splat_surfels_comp(), 2, sizeof(L::SplatParams)),
+      resolve_(ctx, "splat_resolve", shaders::splat_resolve_comp(), 6, sizeof(L::ResolveParams)),
+      subsample_(ctx, "subsample_prediction", shaders::subsample_prediction_comp(), 6, sizeof(L::SubsampleParams)),
+      associate_(ctx, "fuse_associate", shaders::fuse_associate_comp(), 9, sizeof(L::FuseParams)),
+      update_(ctx, "fuse_update", shaders::fuse_update_comp(), 9, sizeof(L::FuseParams)),
+      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams)) {}
+
+void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
+                              ModelPrediction& out, const PredictionParams& params, int frame) const {
+  const auto& l0 = out.levels.at(0);
+  const Intrinsics& k = l0.intrinsics;
+  L::SplatParams sp{};
+  to_rows(T_camera_model, sp.T_camera_model);
+  sp.fx = float(k.fx), sp.fy = float(k.fy), sp.cx = float(k.cx), sp.cy = float(k.cy);
+  sp.width = uint32_t(k.width), sp.height = uint32_t(k.height);
+  sp.surfel_count = model.count();
+  sp.min_confidence = params.min_confidence;
+  sp.frame = frame;
+  sp.recent_window_frames = params.recent_window_frames;
+  sp.grid_scale = 1;
+  sp.footprint_px = uint32_t(params.footprint_px);
+  cmd.fill(out.depth_index, 0xFFFFFFFFu);
+  cmd.barrier();
+  splat(cmd, model.surfels(), out.depth_index, sp);
+  cmd.barrier();
+  L::ResolveParams rp{};
+  std::copy(sp.T_camera_model, sp.T_camera_model + 12, rp.T_camera_model);
+  rp.fx = sp.fx, rp.fy = sp.fy, rp.cx = sp.cx, rp.cy = sp.cy, rp.width = sp.width, rp.height = sp.height;
+  resolve(cmd, model.surfels(), out.depth_index, l0, out.index_map, rp);
+  cmd.barrier();
+  for (size_t l = 1; l < out.levels.size(); ++l) {
+    subsample(cmd, out.levels[l - 1], out.levels[l]);
+    cmd.barrier();
+  }
+  for (auto& level : out.levels) preprocessor_.intensity_gradient(cmd, level.intensity, level.gradient, level.width, level.height);
+  cmd.barrier();
+}
+
+void SurfelPipelines::splat(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& grid,
+                            const L::SplatParams& p) const {
+  cmd.dispatch(splat_, {surfels, grid}, p, group_count(p.surfel_count, 128));
+}
+
+void SurfelPipelines::resolve(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& depth_index,
+                              const kernels::FramePyramid::Level& out, const gpu::BufferPtr& index_map,
+                              const L::ResolveParams& p) const {
+  cmd.dispatch(resolve_, {surfels, depth_index, out.vertex, out.normal, out.intensity, index_map}, p, tiles(out.width),
+               tiles(out.height));
+}
+
+void SurfelPipelines::subsample(gpu::CommandList& cmd, const kernels::FramePyramid::Level& src,
+                                const kernels::FramePyramid::Level& dst) const {
+  const L::SubsampleParams p{uint32_t(src.width), uint32_t(src.height), uint32_t(dst.width), uint32_t(dst.height)};
+  cmd.dispatch(subsample_, {src.vertex, src.normal, src.intensity, dst.vertex, dst.normal, dst.intensity}, p,
+               tiles(dst.width), tiles(dst.height));
+}
+
+void SurfelPipelines::associate(gpu::CommandList& cmd, const FuseBuffers& b, const L::FuseParams& p) const {
+  cmd.dispatch(associate_, {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels}, p,
+               tiles(int(p.width)), tiles(int(p.height)));
+}
+
+void SurfelPipelines::update(gpu::CommandList& cmd, const FuseBuffers& b, const L::FuseParams& p) const {
+  cmd.dispatch(update_, {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels}, p,
+               tiles(int(p.width)), tiles(int(p.height)));
+}
+
+void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                              const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter,
+                              const L::CleanupParams& p) const {
+  cmd.dispatch(cleanup_, {src, dst, depth_m, counter}, p, group_count(p.surfel_count, 128));
+}
+
+gpu::BufferPtr SurfelPipelines::index_map_for(int width, int height, int scale) const {
+  const size_t bytes = size_t(width) * scale * size_t(height) * scale * 8;
+  if (!index_map_ || index_map_->size() < bytes) index_map_ = gpu::Buffer::create(ctx_, bytes, "fusion index map");
+  return index_map_;
+}
+
+FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
+                                  const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
+                                  const gpu::BufferPtr& labels, unsigned label) const {
+  const auto& l0 = live.levels.at(0);
+  const Intrinsics& k = l0.intrinsics;
+  const unsigned pixels = unsigned(k.width) * unsigned(k.height);
+  FusionStats stats;
+  stats.surfels_before = model.count_;
+  // Room for one new surfel per live pixel, so the append in fuse_update can never overflow.
+  model.reserve(stream, model.count_ + pixels);
+  const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
+  stream.upload(model.counter_, counter_init, sizeof counter_init);
+  const int S = params.index_map_scale;
+  auto index_map = index_map_for(k.width, k.height, S);
+  if (!assoc_ || assoc_->size() < size_t(pixels) * 4) assoc_ = gpu::Buffer::create(ctx_, size_t(pixels) * 4, "fusion association");
+  if (!dummy_labels_) dummy_labels_ = gpu::Buffer::create(ctx_, 4, "no labels");
+
+  float T[12];
+  to_rows(T_camera_model, T);
+  L::SplatParams sp{};
+  std::copy(T, T + 12, sp.T_camera_model);
+  sp.fx = float(k.fx), sp.fy = float(k.fy), sp.cx = float(k.cx), sp.cy = float(k.cy);
+  sp.width = uint32_t(k.width * S), sp.height = uint32_t(k.height * S);
+  sp.surfel_count = model.count_;
+  sp.min_confidence = 0.0f;  // every surfel may take part in association
+  sp.frame = frame;
+  sp.recent_window_frames = 0;
+  sp.grid_scale = uint32_t(S);
+  sp.footprint_px = 0;
+
+  L::FuseParams fp{};
+  std::copy(T, T + 12, fp.T_camera_model);
+  fp.fx = sp.fx, fp.fy = sp.fy, fp.cx = sp.cx, fp.cy = sp.cy;
+  fp.width = uint32_t(k.width), fp.height = uint32_t(k.height);
+  fp.grid_scale = uint32_t(S);
+  fp.surfel_count = model.count_;
+  fp.capacity = model.capacity_;
+  fp.frame = frame;
+  fp.max_depth_diff_rel = params.max_depth_diff_rel;
+  fp.min_normal_dot = float(std::cos(params.max_normal_angle_deg * M_PI / 180.0));
+  fp.max_radius_growth = params.max_radius_growth;
+  fp.use_labels = labels ? 1u : 0u;
+  fp.label = label;
+
+  L::CleanupParams cp{};
+  std::copy(T, T + 12, cp.T_camera_model);
+  cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy;
+  cp.width = fp.width, cp.height = fp.height;
+  cp.surfel_count = model.count_ + pixels;
+  cp.frame = frame;
+  cp.stable_confidence = params.stable_confidence;
+  cp.unstable_window_frames = params.unstable_window_frames;
+  cp.free_space_margin_rel = params.free_space_margin_rel;
+  cp.free_space_penalty = params.free_space_penalty;
+
+  const gpu::BufferPtr& label_buffer = labels ? labels : dummy_labels_;
+  stream.run([&](gpu::CommandList& cmd) {
+    cmd.fill(index_map, 0xFFFFFFFFu);
+    cmd.fill(model.claim_, 0xFFFFFFFFu);
+    cmd.barrier();
+    splat(cmd, model.surfels_, index_map, sp);
+    cmd.barrier();
+    const FuseBuffers b{model.surfels_, index_map, l0.vertex, l0.normal, live.rgb,
+                        assoc_,         model.claim_, model.counter_, label_buffer};
+    associate(cmd, b, fp);
+    cmd.barrier();
+    update(cmd, b, fp);
+    cmd.barrier();
+    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, cp);
+  });
+  uint32_t counter[4];
+  stream.download(model.counter_, counter, sizeof counter);
+  stats.surfels_after_fusion = std::min(counter[0], model.capacity_);
+  stats.surfels_after_cleanup = counter[1];
+  std::swap(model.surfels_, model.scratch_);
+  model.count_ = counter[1];
+  return stats;
+}
+
+}  // namespace cofusion::slam

@@ -1,0 +1,115 @@
+#pragma once
+// A surfel model in Vulkan buffers, its prediction into a view (compute splatting) and fusion of
+// a live frame into it. Every kernel has a CPU reference in surfel_reference.h.
+#include <Eigen/Geometry>
+#include <optional>
+#include <vector>
+
+#include "common/surfel_cloud.h"
+#include "gpu/stream.h"
+#include "kernels/preprocess.h"
+#include "shared/host_device.h"
+#include "slam/surfel_params.h"
+
+namespace cofusion::slam {
+
+class SurfelModel {
+ public:
+  SurfelModel(gpu::Context& ctx, int id, unsigned initial_capacity);
+
+  int id() const { return id_; }
+  // Number of surfels (as of the last completed fusion).
+  unsigned count() const { return count_; }
+  unsigned capacity() const { return capacity_; }
+  const gpu::BufferPtr& surfels() const { return surfels_; }
+  // Largest model this device can hold in one storage buffer.
+  unsigned max_capacity() const { return max_capacity_; }
+
+  // Grows the buffers (doubling) so that `needed` surfels fit, keeping the content. Throws
+  // cofusion::Error naming the model when the device cannot hold that many.
+  void reserve(gpu::Stream& stream, unsigned needed);
+  std::vector<Surfel> download(gpu::Stream& stream) const;
+  void upload(gpu::Stream& stream, const std::vector<Surfel>& surfels);
+
+  Eigen::Isometry3d T_world_model = Eigen::Isometry3d::Identity();
+
+ private:
+  friend class SurfelPipelines;
+  gpu::Context& ctx_;
+  int id_;
+  unsigned count_ = 0;
+  unsigned capacity_ = 0;
+  unsigned max_capacity_ = 0;
+  gpu::BufferPtr surfels_;  // Surfel[capacity]
+  gpu::BufferPtr scratch_;  // compaction target, swapped with surfels_ after cleanup
+  gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims
+  gpu::BufferPtr counter_;  // uint[4]
+};
+
+// A model rendered into a camera view, as tracking's reference: per pyramid level the vertex
+// and normal maps (camera frame), intensity and its gradient; plus the surfel index map.
+struct ModelPrediction {
+  std::vector<kernels::FramePyramid::Level> levels;  // depth_m unused (null)
+  gpu::BufferPtr depth_index;  // uint64 per pixel at level 0
+  gpu::BufferPtr index_map;    // uint surfel index per pixel at level 0 (0xFFFFFFFF = none)
+  static ModelPrediction allocate(gpu::Context& ctx, const Intrinsics& intrinsics, int levels, const std::string& name);
+};
+
+struct FusionStats {
+  unsigned surfels_before = 0;
+  unsigned surfels_after_fusion = 0;  // including new ones
+  unsigned surfels_after_cleanup = 0;
+};
+
+class SurfelPipelines {
+ public:
+  SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor& preprocessor);
+
+  // Renders `model` seen from a camera at T_camera_model into `out` (all levels).
+  void predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
+               ModelPrediction& out, const PredictionParams& params, int frame) const;
+
+  // Fuses the live frame (level 0 of `live`) into `model` seen at T_camera_model, then removes
+  // unstable and free-space surfels. With `labels` (uint per pixel), only pixels whose label is
+  // `label` are fused. Synchronous: returns when the model's new count is known.
+  FusionStats fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
+                   const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
+                   const gpu::BufferPtr& labels = nullptr, unsigned label = 0) const;
+
+  // The supersampled index map buffer for a live image size (owned here, reused across models).
+  gpu::BufferPtr index_map_for(int width, int height, int scale) const;
+
+  // Single kernels, as predict() and fuse() record them (for tests against the references).
+  struct FuseBuffers {
+    gpu::BufferPtr surfels, index_map, vertex, normal, rgb, assoc, claim, counter, labels;
+  };
+  void splat(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& grid,
+             const gpu_layout::SplatParams& p) const;
+  void resolve(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& depth_index,
+               const kernels::FramePyramid::Level& out, const gpu::BufferPtr& index_map,
+               const gpu_layout::ResolveParams& p) const;
+  void subsample(gpu::CommandList& cmd, const kernels::FramePyramid::Level& src,
+                 const kernels::FramePyramid::Level& dst) const;
+  void associate(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
+  void update(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
+  void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, const gpu::BufferPtr& depth_m,
+               const gpu::BufferPtr& counter, const gpu_layout::CleanupParams& p) const;
+
+ private:
+  gpu::Context& ctx_;
+  const kernels::Preprocessor& preprocessor_;
+  gpu::ComputePipeline splat_;
+  gpu::ComputePipeline resolve_;
+  gpu::ComputePipeline subsample_;
+  gpu::ComputePipeline associate_;
+  gpu::ComputePipeline update_;
+  gpu::ComputePipeline cleanup_;
+  mutable gpu::BufferPtr index_map_;
+  mutable gpu::BufferPtr assoc_;
+  mutable gpu::BufferPtr dummy_labels_;
+};
+
+// Row-major float 3x4 of a rigid transform, as the shaders take it.
+void to_rows(const Eigen::Isometry3d& T, float out[12]);
+
+}  // namespace cofusion::slam

@@ -1,0 +1,37 @@
+#pragma once
+// Parameters of surfel prediction and fusion. Defaults follow ElasticFusion / Co-Fusion where
+// they have one; units in the names.
+
+namespace cofusion::slam {
+
+struct PredictionParams {
+  // Surfels below this confidence are left out of the predicted view ...
+  float min_confidence = 0.0f;
+  // ... unless created within this many frames (young models have no stable surfels yet).
+  int recent_window_frames = 1 << 30;
+  // Half-size in pixels of the square a surfel covers when its disc is larger than a pixel.
+  int footprint_px = 1;
+};
+
+struct FusionParams {
+  // Resolution multiplier of the index map used for data association (ElasticFusion: 4).
+  int index_map_scale = 4;
+  // A live pixel matches a surfel within max_depth_diff_rel * depth + 5 mm ...
+  float max_depth_diff_rel = 0.03f;
+  // ... whose normal is within this angle of the live normal.
+  float max_normal_angle_deg = 20.0f;
+  // Position/normal/radius are averaged only when the live disc is at most this much larger.
+  float max_radius_growth = 1.5f;
+  // Surfels at or above this confidence are stable (ElasticFusion: 10 with weights <= 1).
+  float stable_confidence = 6.0f;
+  // Unstable surfels not confirmed within this many frames of their creation are removed.
+  int unstable_window_frames = 30;
+  // A surfel more than this fraction of the live depth in front of the live surface is in free space ...
+  float free_space_margin_rel = 0.06f;
+  // ... and loses this much confidence per such observation (removed at zero).
+  float free_space_penalty = 1.0f;
+  // Initial capacity of a model's surfel buffer; it doubles when full.
+  unsigned initial_capacity = 1u << 19;
+};
+
+}  // namespace cofusion::slam

@@ -1,0 +1,48 @@
+#pragma once
+// CPU references of the surfel kernels (splat_surfels, splat_resolve, subsample_prediction,
+// fuse_associate, fuse_update, surfel_cleanup), taking the same parameter structs as the shaders.
+// Sequential loops: "atomic" minima and appends happen in index order, so results are
+// deterministic; GPU appends may come in another order (tests compare those as sets).
+#include <cstdint>
+#include <glm/vec2.hpp>
+#include <glm/vec4.hpp>
+#include <vector>
+
+#include "common/surfel_cloud.h"
+#include "kernels/image.h"
+#include "shared/host_device.h"
+
+namespace cofusion::slam::reference {
+
+using kernels::Image;
+
+// Key grid of splat_surfels: width*height uint64 (all ones = empty).
+std::vector<uint64_t> splat(const std::vector<Surfel>& surfels, const gpu_layout::SplatParams& p);
+
+struct PredictedMaps {
+  Image<glm::vec4> vertex, normal;
+  Image<float> intensity;
+  Image<uint32_t> index;
+};
+PredictedMaps resolve(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& depth_index,
+                      const gpu_layout::ResolveParams& p);
+PredictedMaps subsample(const PredictedMaps& src);
+
+struct LiveMaps {
+  Image<glm::vec4> vertex, normal;
+  std::vector<uint8_t> rgb;       // width*height*3
+  std::vector<uint32_t> labels;   // empty = no labels
+};
+struct Association {
+  std::vector<uint32_t> assoc;  // per pixel
+  std::vector<uint32_t> claim;  // per surfel
+};
+Association associate(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map, const LiveMaps& live,
+                      const gpu_layout::FuseParams& p);
+// Updates `surfels` in place and appends new ones (in pixel order).
+void update(std::vector<Surfel>& surfels, const Association& a, const LiveMaps& live, const gpu_layout::FuseParams& p);
+// Surfels kept by surfel_cleanup, in index order.
+std::vector<Surfel> cleanup(const std::vector<Surfel>& surfels, const Image<float>& depth_m,
+                            const gpu_layout::CleanupParams& p);
+
+}  // namespace cofusion::slam::reference

@@ -1,0 +1,54 @@
+#version 460
+// Projective data association for fusion: each live pixel looks at its block of the supersampled
+// index map and picks the surfel that agrees in depth and normal with the highest confidence
+// (ties: nearest to the pixel's ray). Several pixels may pick one surfel; the lowest pixel index
+// claims it (atomicMin), so the update is race-free and deterministic.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#include "shared/host_device.h"
+#include "shared/rigid.glsl"
+layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
+layout(std430, binding = FUSE_BINDING_SURFELS) readonly buffer Surfels { Surfel surfels[]; };
+layout(std430, binding = FUSE_BINDING_INDEX_MAP) readonly buffer IndexMap { uint64_t index_map[]; };
+layout(std430, binding = FUSE_BINDING_VERTEX) readonly buffer Vertex { vec4 vertex[]; };
+layout(std430, binding = FUSE_BINDING_NORMAL) readonly buffer Normal { vec4 normal[]; };
+layout(std430, binding = FUSE_BINDING_RGB) readonly buffer Rgb { uint rgb[]; };
+layout(std430, binding = FUSE_BINDING_ASSOC) writeonly buffer Assoc { uint assoc[]; };
+layout(std430, binding = FUSE_BINDING_CLAIM) buffer Claim { uint claim[]; };
+layout(std430, binding = FUSE_BINDING_COUNTER) buffer Counter { uint counter[]; };
+layout(std430, binding = FUSE_BINDING_LABELS) readonly buffer Labels { uint labels[]; };
+layout(push_constant) uniform Push { FuseParams p; };
+void main() {
+  uvec2 px = gl_GlobalInvocationID.xy;
+  if (px.x >= p.width || px.y >= p.height) return;
+  uint i = px.y * p.width + px.x;
+  vec4 v = vertex[i], n = normal[i];
+  if (v.w == 0.0 || n.w == 0.0 || (p.use_labels != 0u && labels[i] != p.label)) {
+    assoc[i] = FUSE_SKIP_PIXEL;
+    return;
+  }
+  vec3 ray = normalize(v.xyz);
+  uint S = p.grid_scale, grid_width = p.width * S;
+  uint best = FUSE_NO_SURFEL;
+  float best_confidence = -1.0, best_ray_dist = 1e30;
+  for (uint sy = 0u; sy < S; ++sy) {
+    for (uint sx = 0u; sx < S; ++sx) {
+      uint64_t key = index_map[(px.y * S + sy) * grid_width + px.x * S + sx];
+      if (key == ~uint64_t(0)) continue;
+      uint si = uint(key & 0xFFFFFFFFul);
+      Surfel s = surfels[si];
+      vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
+      vec3 nc = rigid_rotate(p.T_camera_model, vec3(s.nx, s.ny, s.nz));
+      if (abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005) continue;
+      if (dot(nc, n.xyz) < p.min_normal_dot) continue;
+      float ray_dist = length(cross(pc, ray));
+      if (s.confidence > best_confidence || (s.confidence == best_confidence && ray_dist < best_ray_dist)) {
+        best = si;
+        best_confidence = s.confidence;
+        best_ray_dist = ray_dist;
+      }
+    }
+  }
+  assoc[i] = best;
+  if (best != FUSE_NO_SURFEL) atomicMin(claim[best], i);
+}

@@ -1,0 +1,130 @@
+#version 460
+// One Gauss-Newton iteration of frame-to-model tracking (Co-Fusion eq. 1-3): the point-to-plane
+// ICP system and the photometric system, reduced in one dispatch. The layout of the partial sums
+// is described in shared/host_device.h; compute/slam/tracker_reference.cpp is the CPU reference.
+//
+// Reduction: each invocation accumulates its pixels (grid-stride loop) in registers, then one
+// subgroupAdd per value and one shared-memory step across the subgroups of the workgroup, behind
+// a single barrier. On lavapipe this is about 10x faster than a shared-memory tree (one barrier
+// per halving). The host adds the workgroups' partials in double.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#include "shared/host_device.h"
+layout(local_size_x = ICP_RGB_GROUP_SIZE) in;
+layout(std430, binding = ICP_RGB_BINDING_LIVE_VERTEX) readonly buffer LiveVertex { vec4 live_vertex[]; };
+layout(std430, binding = ICP_RGB_BINDING_LIVE_NORMAL) readonly buffer LiveNormal { vec4 live_normal[]; };
+layout(std430, binding = ICP_RGB_BINDING_LIVE_INTENSITY) readonly buffer LiveIntensity { float live_intensity[]; };
+layout(std430, binding = ICP_RGB_BINDING_REF_VERTEX) readonly buffer RefVertex { vec4 ref_vertex[]; };
+layout(std430, binding = ICP_RGB_BINDING_REF_NORMAL) readonly buffer RefNormal { vec4 ref_normal[]; };
+layout(std430, binding = ICP_RGB_BINDING_REF_INTENSITY) readonly buffer RefIntensity { float ref_intensity[]; };
+layout(std430, binding = ICP_RGB_BINDING_REF_GRADIENT) readonly buffer RefGradient { vec2 ref_gradient[]; };
+layout(std430, binding = ICP_RGB_BINDING_PARTIALS) writeonly buffer Partials { float partials[]; };
+layout(push_constant) uniform Push { IcpRgbReduceParams p; };
+
+shared float subgroup_sums[ICP_RGB_MAX_SUBGROUPS * ICP_RGB_PARTIAL_VALUES];
+
+// Adds J^T J (upper triangle), J^T r, r^2 and 1 to the 29 sums of one term. Constant loop bounds:
+// the compiler unrolls them and the sums stay in registers.
+void accumulate(inout float s[ICP_RGB_TERM_VALUES], float J[6], float r) {
+  int k = 0;
+  for (int i = 0; i < 6; ++i)
+    for (int j = i; j < 6; ++j) s[k++] += J[i] * J[j];
+  for (int i = 0; i < 6; ++i) s[21 + i] += J[i] * r;
+  s[27] += r * r;
+  s[28] += 1.0;
+}
+
+void main() {
+  const mat3 R = mat3(p.T_reference_live[0], p.T_reference_live[4], p.T_reference_live[8],   // column 0
+                      p.T_reference_live[1], p.T_reference_live[5], p.T_reference_live[9],   // column 1
+                      p.T_reference_live[2], p.T_reference_live[6], p.T_reference_live[10]); // column 2
+  const vec3 t = vec3(p.T_reference_live[3], p.T_reference_live[7], p.T_reference_live[11]);
+  const int w = int(p.width), h = int(p.height);
+  const uint n = p.width * p.height;
+  const float max_d2 = p.max_distance_m * p.max_distance_m;
+
+  float icp[ICP_RGB_TERM_VALUES], rgb[ICP_RGB_TERM_VALUES];
+  for (int k = 0; k < ICP_RGB_TERM_VALUES; ++k) {
+    icp[k] = 0.0;
+    rgb[k] = 0.0;
+  }
+  float valid_live = 0.0;
+
+  const uint stride = gl_NumWorkGroups.x * ICP_RGB_GROUP_SIZE;
+  for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) {
+    const vec4 v_live = live_vertex[i];
+    if (v_live.w <= 0.0) continue;
+    const vec4 n_live = live_normal[i];
+    const bool normal_valid = n_live.w > 0.0;
+    if (normal_valid) valid_live += 1.0;
+    const vec3 q = R * v_live.xyz + t;  // live point in the reference frame
+    if (q.z <= 0.0) continue;
+    const float x = p.fx * q.x / q.z + p.cx, y = p.fy * q.y / q.z + p.cy;
+    // Float comparisons first: x, y may be far outside int range.
+    if (!(x >= -0.5 && y >= -0.5 && x < float(w) - 0.5 && y < float(h) - 0.5)) continue;
+    const int xn = int(floor(x + 0.5)), yn = int(floor(y + 0.5));
+    const uint j = uint(yn * w + xn);  // nearest reference pixel
+    const vec4 v_ref = ref_vertex[j];
+    if (v_ref.w <= 0.0) continue;
+
+    // Point-to-plane ICP (eq. 2): r = n_ref . (q - v_ref), J = [n_ref, q x n_ref].
+    if (normal_valid) {
+      const vec4 n_ref = ref_normal[j];
+      const vec3 d = q - v_ref.xyz;
+      if (n_ref.w > 0.0 && dot(d, d) <= max_d2 && dot(R * n_live.xyz, n_ref.xyz) >= p.min_normal_cos) {
+        const vec3 c = cross(q, n_ref.xyz);
+        float J[6] = float[6](n_ref.x, n_ref.y, n_ref.z, c.x, c.y, c.z);
+        accumulate(icp, J, dot(n_ref.xyz, d));
+      }
+    }
+
+    // Photometric (eq. 3): r = I_ref(pi(q)) - I_live(u), bilinear in the reference, where the
+    // four reference samples are valid and the nearest one is not occluding q.
+    if (p.use_photometric != 0u && x >= 0.0 && y >= 0.0 && x < float(w - 1) && y < float(h - 1) &&
+        abs(q.z - v_ref.z) <= p.max_distance_m) {
+      const int x0 = int(floor(x)), y0 = int(floor(y));
+      const uint j00 = uint(y0 * w + x0), j10 = j00 + 1u, j01 = j00 + p.width, j11 = j01 + 1u;
+      if (ref_vertex[j00].w > 0.0 && ref_vertex[j10].w > 0.0 && ref_vertex[j01].w > 0.0 &&
+          ref_vertex[j11].w > 0.0) {
+        const float ax = x - float(x0), ay = y - float(y0);
+        const vec4 wts = vec4((1.0 - ax) * (1.0 - ay), ax * (1.0 - ay), (1.0 - ax) * ay, ax * ay);
+        const float I = dot(wts, vec4(ref_intensity[j00], ref_intensity[j10], ref_intensity[j01], ref_intensity[j11]));
+        const float r = (I - live_intensity[i]) * (1.0 / 255.0);
+        if (abs(r) <= p.max_intensity_diff) {
+          const vec2 g = (wts.x * ref_gradient[j00] + wts.y * ref_gradient[j10] + wts.z * ref_gradient[j01] +
+                          wts.w * ref_gradient[j11]) * (1.0 / 255.0);
+          // dI/dq = g * d pi / d q
+          const float inv_z = 1.0 / q.z;
+          const vec3 dI_dq = vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z,
+                                  -(g.x * p.fx * q.x + g.y * p.fy * q.y) * inv_z * inv_z);
+          const vec3 c = cross(q, dI_dq);
+          float J[6] = float[6](dI_dq.x, dI_dq.y, dI_dq.z, c.x, c.y, c.z);
+          accumulate(rgb, J, r);
+        }
+      }
+    }
+  }
+
+  // Subgroup sums, one slot per subgroup in shared memory, then one barrier.
+  const bool leader = gl_SubgroupInvocationID == 0u;
+  const uint base = gl_SubgroupID * ICP_RGB_PARTIAL_VALUES;
+  for (int k = 0; k < ICP_RGB_TERM_VALUES; ++k) {
+    const float a = subgroupAdd(icp[k]);
+    const float b = subgroupAdd(rgb[k]);
+    if (leader) {
+      subgroup_sums[base + k] = a;
+      subgroup_sums[base + ICP_RGB_TERM_VALUES + k] = b;
+    }
+  }
+  const float v = subgroupAdd(valid_live);
+  if (leader) subgroup_sums[base + 2 * ICP_RGB_TERM_VALUES] = v;
+  memoryBarrierShared();
+  barrier();
+  const uint k = gl_LocalInvocationIndex;
+  if (k < ICP_RGB_PARTIAL_VALUES) {
+    float s = 0.0;
+    for (uint g = 0u; g < gl_NumSubgroups; ++g) s += subgroup_sums[g * ICP_RGB_PARTIAL_VALUES + k];
+    partials[gl_WorkGroupID.x * ICP_RGB_PARTIAL_STRIDE + k] = s;
+  }
+}

@@ -1,0 +1,22 @@
+#version 460
+// Predicted maps of the next-coarser level: pixel (x, y) takes level-l pixel (2x, 2y). Averaging
+// would blend surfaces across depth edges; the finer level already holds exact surfel samples.
+#extension GL_GOOGLE_include_directive : require
+#include "shared/host_device.h"
+layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
+layout(std430, binding = SUBSAMPLE_BINDING_SRC_VERTEX) readonly buffer SV { vec4 src_vertex[]; };
+layout(std430, binding = SUBSAMPLE_BINDING_SRC_NORMAL) readonly buffer SN { vec4 src_normal[]; };
+layout(std430, binding = SUBSAMPLE_BINDING_SRC_INTENSITY) readonly buffer SI { float src_intensity[]; };
+layout(std430, binding = SUBSAMPLE_BINDING_DST_VERTEX) writeonly buffer DV { vec4 dst_vertex[]; };
+layout(std430, binding = SUBSAMPLE_BINDING_DST_NORMAL) writeonly buffer DN { vec4 dst_normal[]; };
+layout(std430, binding = SUBSAMPLE_BINDING_DST_INTENSITY) writeonly buffer DI { float dst_intensity[]; };
+layout(push_constant) uniform Push { SubsampleParams p; };
+void main() {
+  uvec2 px = gl_GlobalInvocationID.xy;
+  if (px.x >= p.dst_width || px.y >= p.dst_height) return;
+  uvec2 src = min(2u * px, uvec2(p.src_width - 1u, p.src_height - 1u));
+  uint s = src.y * p.src_width + src.x, d = px.y * p.dst_width + px.x;
+  dst_vertex[d] = src_vertex[s];
+  dst_normal[d] = src_normal[s];
+  dst_intensity[d] = src_intensity[s];
+}

@@ -1,0 +1,389 @@
+// Surfel kernels (splat, resolve, subsample, associate, update, cleanup) against their CPU
+// references over edge sizes, and the model's fusion/prediction behaviour end to end.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+#include <random>
+
+#include "kernels/preprocess_reference.h"
+#include "slam/surfel_model.h"
+#include "slam/surfel_reference.h"
+#include "support/gpu_fixture.h"
+
+namespace cofusion::test {
+namespace {
+using kernels::Image;
+namespace ref = slam::reference;
+namespace L = gpu_layout;
+
+struct Size {
+  int width, height;
+};
+const Size kSizes[] = {{1, 1}, {37, 23}, {160, 120}, {640, 480}};
+std::string name(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
+
+Intrinsics intrinsics_for(Size s) {
+  Intrinsics k;
+  k.width = s.width, k.height = s.height;
+  k.fx = k.fy = 525.0 * s.width / 640.0 + 1.0;
+  k.cx = (s.width - 1) / 2.0 + 0.25;
+  k.cy = (s.height - 1) / 2.0 - 0.25;
+  return k;
+}
+
+// Depth of a scene seen by the camera: a back wall, a slanted floor and a sphere.
+Image<float> scene_depth(Size s, const Intrinsics& k) {
+  Image<float> d(s.width, s.height);
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x) {
+      const double rx = (x - k.cx) / k.fx, ry = (y - k.cy) / k.fy;
+      double z = 2.5;
+      if (ry > 0.1) z = std::min(z, 0.9 / ry);
+      const double sx = 0.2, sy = 0.0, sz = 1.5, r = 0.3;
+      const double b = rx * sx + ry * sy + sz, a = rx * rx + ry * ry + 1, c = sx * sx + sy * sy + sz * sz - r * r;
+      if (b * b - a * c > 0) z = std::min(z, (b - std::sqrt(b * b - a * c)) / a);
+      d.at(x, y) = float(z);
+    }
+  return d;
+}
+
+Eigen::Isometry3d test_pose(double angle = 0.03, Eigen::Vector3d t = {0.02, -0.01, 0.03}) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle, Eigen::Vector3d(0.3, 1, 0.2).normalized()).toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+// Surfels sampled from the scene in the model frame (= world here), with jitter and varied
+// confidences, ages and colours, so that every branch of the kernels is exercised.
+std::vector<Surfel> make_surfels(Size s, const Intrinsics& k, unsigned seed, const Eigen::Isometry3d& T_model_camera) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> jitter(-0.002f, 0.002f), conf(0.0f, 12.0f), unit(0, 1);
+  std::uniform_int_distribution<int> age(0, 60), byte(0, 255);
+  const auto depth = scene_depth(s, k);
+  Image<glm::vec4> v, n;
+  kernels::reference::vertex_normal_map(depth, k, v, n);
+  std::vector<Surfel> out;
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (v.pixels[i].w == 0 || n.pixels[i].w == 0 || unit(rng) < 0.1f) continue;
+    const Eigen::Vector3d p = T_model_camera * Eigen::Vector3d(v.pixels[i].x, v.pixels[i].y, v.pixels[i].z);
+    const Eigen::Vector3d nn = T_model_camera.linear() * Eigen::Vector3d(n.pixels[i].x, n.pixels[i].y, n.pixels[i].z);
+    Surfel sf{};
+    sf.px = float(p.x()) + jitter(rng), sf.py = float(p.y()) + jitter(rng), sf.pz = float(p.z()) + jitter(rng);
+    sf.nx = float(nn.x()), sf.ny = float(nn.y()), sf.nz = float(nn.z());
+    sf.confidence = conf(rng);
+    sf.radius_m = v.pixels[i].z / float(k.fx) * (0.5f + 2.0f * unit(rng));
+    sf.colour_rgba8 = uint32_t(byte(rng)) | uint32_t(byte(rng)) << 8 | uint32_t(byte(rng)) << 16 | 0xFF000000u;
+    sf.created_frame = 100 - age(rng);
+    sf.last_seen_frame = 100;
+    out.push_back(sf);
+  }
+  return out;
+}
+
+class SurfelKernels : public GpuTest {
+ protected:
+  void SetUp() override {
+    GpuTest::SetUp();
+    if (!pre_) {
+      pre_ = std::make_unique<kernels::Preprocessor>(ctx());
+      pipes_ = std::make_unique<slam::SurfelPipelines>(ctx(), *pre_);
+    }
+  }
+  static void TearDownTestSuite() {
+    pipes_.reset();
+    pre_.reset();
+    GpuTest::TearDownTestSuite();
+  }
+  template <typename T>
+  gpu::BufferPtr upload(const std::vector<T>& v, const std::string& what = "input") {
+    auto b = gpu::Buffer::create(ctx(), std::max<size_t>(v.size(), 1) * sizeof(T), what);
+    stream().upload(b, v.data(), v.size() * sizeof(T));
+    return b;
+  }
+  template <typename T>
+  std::vector<T> download(const gpu::BufferPtr& b, size_t n) {
+    return stream().template download<T>(b, n);
+  }
+  static std::unique_ptr<kernels::Preprocessor> pre_;
+  static std::unique_ptr<slam::SurfelPipelines> pipes_;
+};
+std::unique_ptr<kernels::Preprocessor> SurfelKernels::pre_;
+std::unique_ptr<slam::SurfelPipelines> SurfelKernels::pipes_;
+
+L::SplatParams splat_params(const Intrinsics& k, const Eigen::Isometry3d& T_camera_model, size_t count, uint32_t scale) {
+  L::SplatParams p{};
+  slam::to_rows(T_camera_model, p.T_camera_model);
+  p.fx = float(k.fx), p.fy = float(k.fy), p.cx = float(k.cx), p.cy = float(k.cy);
+  p.width = uint32_t(k.width) * scale, p.height = uint32_t(k.height) * scale;
+  p.surfel_count = uint32_t(count);
+  p.min_confidence = 5.0f;
+  p.frame = 100;
+  p.recent_window_frames = 30;
+  p.grid_scale = scale;
+  p.footprint_px = 1;
+  return p;
+}
+
+bool same_surfel(const Surfel& a, const Surfel& b, float tol) {
+  const auto close = [&](float x, float y) { return std::abs(x - y) <= tol * (1 + std::abs(y)); };
+  const auto colour_close = [](uint32_t x, uint32_t y) {
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(int((x >> (8 * c)) & 0xFF) - int((y >> (8 * c)) & 0xFF)) > 1) return false;
+    return true;
+  };
+  return close(a.px, b.px) && close(a.py, b.py) && close(a.pz, b.pz) && close(a.nx, b.nx) && close(a.ny, b.ny) &&
+         close(a.nz, b.nz) && close(a.confidence, b.confidence) && close(a.radius_m, b.radius_m) &&
+         colour_close(a.colour_rgba8, b.colour_rgba8) && a.created_frame == b.created_frame &&
+         a.last_seen_frame == b.last_seen_frame;
+}
+
+void sort_by_position(std::vector<Surfel>& v) {
+  std::sort(v.begin(), v.end(), [](const Surfel& a, const Surfel& b) {
+    return std::tie(a.pz, a.py, a.px) < std::tie(b.pz, b.py, b.px);
+  });
+}
+
+// Tolerance for splatting: the projected depth/pixel may differ by float rounding between the CPU
+// and the driver, so at most 0.2% of cells may disagree on their winner or on being empty.
+TEST_F(SurfelKernels, SplatMatchesReference) {
+  for (Size s : kSizes)
+    for (uint32_t scale : {1u, 4u}) {
+      const Intrinsics k = intrinsics_for(s);
+      const auto T = test_pose();
+      const auto surfels = make_surfels(s, k, 1, T.inverse());
+      const auto p = splat_params(k, Eigen::Isometry3d(test_pose(0.0, {0, 0, 0})), surfels.size(), scale);
+      auto grid = gpu::Buffer::create(ctx(), size_t(p.width) * p.height * 8, "grid");
+      auto sb = upload(surfels, "surfels");
+      stream().run([&](gpu::CommandList& c) {
+        c.fill(grid, 0xFFFFFFFFu);
+        c.barrier();
+        pipes_->splat(c, sb, grid, p);
+      });
+      const auto gpu = download<uint64_t>(grid, size_t(p.width) * p.height);
+      const auto cpu = ref::splat(surfels, p);
+      size_t differ = 0, filled = 0;
+      for (size_t i = 0; i < cpu.size(); ++i) {
+        filled += cpu[i] != ~uint64_t{0};
+        differ += (gpu[i] & 0xFFFFFFFFu) != (cpu[i] & 0xFFFFFFFFu);
+      }
+      EXPECT_LE(differ, cpu.size() / 500) << name(s) << " scale " << scale;
+      if (s.width >= 160) {
+        EXPECT_GT(filled, cpu.size() / 4) << "test scene covers too little of the view";
+      }
+    }
+}
+
+TEST_F(SurfelKernels, ResolveAndSubsampleMatchReference) {
+  for (Size s : kSizes) {
+    const Intrinsics k = intrinsics_for(s);
+    const auto T_camera_model = test_pose();
+    const auto surfels = make_surfels(s, k, 2, T_camera_model.inverse());
+    const auto sp = splat_params(k, T_camera_model, surfels.size(), 1);
+    const auto grid = ref::splat(surfels, sp);
+    L::ResolveParams rp{};
+    std::copy(sp.T_camera_model, sp.T_camera_model + 12, rp.T_camera_model);
+    rp.fx = sp.fx, rp.fy = sp.fy, rp.cx = sp.cx, rp.cy = sp.cy, rp.width = sp.width, rp.height = sp.height;
+    auto prediction = slam::ModelPrediction::allocate(ctx(), k, 2, "prediction");
+    auto sb = upload(surfels, "surfels"), gb = upload(grid, "grid");
+    stream().run([&](gpu::CommandList& c) {
+      pipes_->resolve(c, sb, gb, prediction.levels[0], prediction.index_map, rp);
+      c.barrier();
+      pipes_->subsample(c, prediction.levels[0], prediction.levels[1]);
+    });
+    const auto cpu0 = ref::resolve(surfels, grid, rp);
+    const auto cpu1 = ref::subsample(cpu0);
+    for (int l = 0; l < 2; ++l) {
+      const auto& cpu = l == 0 ? cpu0 : cpu1;
+      const auto& level = prediction.levels[l];
+      const size_t n = size_t(level.width) * level.height;
+      ASSERT_EQ(n, cpu.vertex.size());
+      const auto v = download<glm::vec4>(level.vertex, n), nn = download<glm::vec4>(level.normal, n);
+      const auto in = download<float>(level.intensity, n);
+      int bad = 0;
+      // Tolerance: 1e-5 relative on vertices and normals (a handful of float operations).
+      for (size_t i = 0; i < n; ++i)
+        if (v[i].w != cpu.vertex.pixels[i].w || glm::length(glm::vec3(v[i] - cpu.vertex.pixels[i])) > 1e-5f * (1 + v[i].z) ||
+            glm::length(glm::vec3(nn[i] - cpu.normal.pixels[i])) > 1e-5f || std::abs(in[i] - cpu.intensity.pixels[i]) > 1e-3f)
+          ++bad;
+      EXPECT_EQ(bad, 0) << name(s) << " level " << l;
+    }
+    EXPECT_EQ(download<uint32_t>(prediction.index_map, cpu0.index.size()), cpu0.index.pixels) << name(s);
+  }
+}
+
+TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
+  for (Size s : kSizes) {
+    const Intrinsics k = intrinsics_for(s);
+    // The live frame sees the scene from the identity pose; the model (built from a slightly
+    // different view) is seen at T_camera_model.
+    const auto depth = scene_depth(s, k);
+    ref::LiveMaps live;
+    kernels::reference::vertex_normal_map(depth, k, live.vertex, live.normal);
+    std::mt19937 rng(3);
+    std::uniform_int_distribution<int> byte(0, 255);
+    live.rgb.resize(size_t(s.width) * s.height * 3);
+    for (auto& b : live.rgb) b = uint8_t(byte(rng));
+    live.labels.resize(size_t(s.width) * s.height);
+    for (size_t i = 0; i < live.labels.size(); ++i) live.labels[i] = (i / 7) % 3 == 0 ? 2u : 1u;
+    const auto T_camera_model = test_pose(0.002, {0.001, 0.0, -0.001});
+    auto surfels = make_surfels(s, k, 4, T_camera_model.inverse());
+    const uint32_t capacity = uint32_t(surfels.size() + live.labels.size());
+
+    for (uint32_t use_labels : {0u, 1u}) {
+      const auto sp = splat_params(k, T_camera_model, surfels.size(), 4);
+      const auto grid = ref::splat(surfels, sp);
+      L::FuseParams fp{};
+      std::copy(sp.T_camera_model, sp.T_camera_model + 12, fp.T_camera_model);
+      fp.fx = sp.fx, fp.fy = sp.fy, fp.cx = sp.cx, fp.cy = sp.cy;
+      fp.width = uint32_t(s.width), fp.height = uint32_t(s.height);
+      fp.grid_scale = 4, fp.surfel_count = uint32_t(surfels.size()), fp.capacity = capacity, fp.frame = 101;
+      fp.max_depth_diff_rel = 0.03f, fp.min_normal_dot = std::cos(20.0f * float(M_PI) / 180.0f);
+      fp.max_radius_growth = 1.5f, fp.use_labels = use_labels, fp.label = 1;
+
+      std::vector<Surfel> storage = surfels;
+      storage.resize(capacity);
+      slam::SurfelPipelines::FuseBuffers b{upload(storage, "surfels"),
+                                           upload(grid, "grid"),
+                                           upload(live.vertex.pixels),
+                                           upload(live.normal.pixels),
+                                           upload(live.rgb),
+                                           gpu::Buffer::create(ctx(), live.labels.size() * 4, "assoc"),
+                                           gpu::Buffer::create(ctx(), capacity * 4, "claim"),
+                                           upload(std::vector<uint32_t>{uint32_t(surfels.size()), 0, 0, 0}),
+                                           upload(live.labels)};
+      stream().run([&](gpu::CommandList& c) {
+        c.fill(b.claim, 0xFFFFFFFFu);
+        c.barrier();
+        pipes_->associate(c, b, fp);
+      });
+      const auto cpu_assoc = ref::associate(surfels, grid, live, fp);
+      const auto gpu_assoc = download<uint32_t>(b.assoc, cpu_assoc.assoc.size());
+      size_t differ = 0, associated = 0;
+      for (size_t i = 0; i < gpu_assoc.size(); ++i) {
+        differ += gpu_assoc[i] != cpu_assoc.assoc[i];
+        associated += cpu_assoc.assoc[i] < FUSE_SKIP_PIXEL;
+      }
+      // Tolerance: depth/normal tests on rounding boundaries may flip for at most 0.2% of pixels.
+      EXPECT_LE(differ, gpu_assoc.size() / 500) << name(s);
+      if (s.width >= 160) {
+        EXPECT_GT(associated, gpu_assoc.size() / 4) << "test data associates too little";
+      }
+
+      // Update from the CPU association on both sides, so the comparison isolates the update.
+      auto cpu_claim = cpu_assoc.claim;
+      cpu_claim.resize(capacity, 0xFFFFFFFFu);
+      stream().upload(b.assoc, cpu_assoc.assoc.data(), cpu_assoc.assoc.size() * 4);
+      stream().upload(b.claim, cpu_claim.data(), cpu_claim.size() * 4);
+      stream().run([&](gpu::CommandList& c) { pipes_->update(c, b, fp); });
+      auto cpu_surfels = surfels;
+      ref::update(cpu_surfels, cpu_assoc, live, fp);
+      const uint32_t gpu_count = download<uint32_t>(b.counter, 1)[0];
+      ASSERT_EQ(gpu_count, cpu_surfels.size()) << name(s);
+      auto gpu_surfels = download<Surfel>(b.surfels, gpu_count);
+      int bad = 0;
+      // Tolerance 2e-5 relative: weighted averages and a normalisation in float.
+      for (size_t i = 0; i < surfels.size(); ++i) bad += !same_surfel(gpu_surfels[i], cpu_surfels[i], 2e-5f);
+      EXPECT_EQ(bad, 0) << "updated surfels " << name(s);
+      std::vector<Surfel> gpu_new(gpu_surfels.begin() + long(surfels.size()), gpu_surfels.end());
+      std::vector<Surfel> cpu_new(cpu_surfels.begin() + long(surfels.size()), cpu_surfels.end());
+      sort_by_position(gpu_new);
+      sort_by_position(cpu_new);
+      bad = 0;
+      for (size_t i = 0; i < cpu_new.size(); ++i) bad += !same_surfel(gpu_new[i], cpu_new[i], 2e-5f);
+      EXPECT_EQ(bad, 0) << "new surfels " << name(s);
+
+      // Cleanup of the CPU result, on both sides, against a live depth with free space in front
+      // of part of the model (the scene pushed 30 cm back on the left).
+      auto pushed = depth;
+      for (int y = 0; y < s.height; ++y)
+        for (int x = 0; x < s.width / 2; ++x) pushed.at(x, y) += 0.3f;
+      L::CleanupParams cp{};
+      std::copy(sp.T_camera_model, sp.T_camera_model + 12, cp.T_camera_model);
+      cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy, cp.width = fp.width, cp.height = fp.height;
+      cp.surfel_count = capacity, cp.frame = 130, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
+      cp.free_space_margin_rel = 0.05f, cp.free_space_penalty = 3.0f;
+      auto src = upload(cpu_surfels, "cleanup src");
+      auto dst = gpu::Buffer::create(ctx(), cpu_surfels.size() * sizeof(Surfel) + 48, "cleanup dst");
+      auto counter = upload(std::vector<uint32_t>{uint32_t(cpu_surfels.size()), 0, 0, 0});
+      auto depth_buffer = upload(pushed.pixels);
+      stream().run([&](gpu::CommandList& c) { pipes_->cleanup(c, src, dst, depth_buffer, counter, cp); });
+      auto cpu_kept = ref::cleanup(cpu_surfels, pushed, cp);
+      const uint32_t kept = download<uint32_t>(counter, 2)[1];
+      ASSERT_EQ(kept, cpu_kept.size()) << name(s);
+      if (s.width >= 160) {
+        EXPECT_LT(kept, cpu_surfels.size()) << "cleanup removed nothing: test data too easy";
+      }
+      auto gpu_kept = download<Surfel>(dst, kept);
+      sort_by_position(gpu_kept);
+      sort_by_position(cpu_kept);
+      bad = 0;
+      for (size_t i = 0; i < cpu_kept.size(); ++i) bad += !same_surfel(gpu_kept[i], cpu_kept[i], 1e-6f);
+      EXPECT_EQ(bad, 0) << "cleanup " << name(s);
+    }
+  }
+}
+
+// The model end to end: fuse a frame into an empty model, predict it back from the same pose,
+// fuse the same frame again.
+TEST_F(SurfelKernels, FusedFramePredictsItselfAndRefusionAddsConfidence) {
+  const Size s{160, 120};
+  const Intrinsics k = intrinsics_for(s);
+  const auto depth = scene_depth(s, k);
+  std::vector<uint8_t> rgb(size_t(s.width) * s.height * 3, 128);
+  kernels::PreprocessParams pp;
+  pp.bilateral = false;
+  auto frame = kernels::FramePyramid::allocate(ctx(), k, 3, "live");
+  frame.upload(stream(), depth.pixels.data(), rgb.data());
+  stream().run([&](gpu::CommandList& c) { pre_->record_frame(c, frame, kernels::FramePyramid::kUploadMetresPerUnit, pp); });
+
+  slam::SurfelModel model(ctx(), 0, 1024);  // small on purpose: fusion must grow it
+  slam::FusionParams fusion;
+  const auto T = test_pose(0.1, {0.2, 0.1, -0.3});  // model frame != camera frame
+  const auto stats = pipes_->fuse(stream(), model, frame, T, 0, fusion);
+  Image<glm::vec4> v, n;
+  kernels::reference::vertex_normal_map(depth, k, v, n);
+  size_t valid = 0;
+  for (size_t i = 0; i < v.size(); ++i) valid += v.pixels[i].w > 0 && n.pixels[i].w > 0;
+  EXPECT_EQ(stats.surfels_before, 0u);
+  EXPECT_EQ(model.count(), valid) << "one surfel per valid pixel";
+  EXPECT_GE(model.capacity(), model.count());
+
+  auto prediction = slam::ModelPrediction::allocate(ctx(), k, 3, "prediction");
+  stream().run([&](gpu::CommandList& c) { pipes_->predict(c, model, T, prediction, slam::PredictionParams{}, 0); });
+  const auto pv = download<glm::vec4>(prediction.levels[0].vertex, v.size());
+  size_t compared = 0, close = 0;
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (v.pixels[i].w == 0 || pv[i].w == 0) continue;
+    ++compared;
+    close += glm::length(glm::vec3(pv[i] - v.pixels[i])) < 0.002f;
+  }
+  EXPECT_GT(compared, valid * 9 / 10);
+  EXPECT_GT(close, compared * 95 / 100) << "predicted vertices within 2 mm of the fused ones";
+
+  const auto before = model.download(stream());
+  double confidence_before = 0;
+  for (const auto& sf : before) confidence_before += sf.confidence;
+  pipes_->fuse(stream(), model, frame, T, 1, fusion);
+  EXPECT_NEAR(double(model.count()), double(valid), valid * 0.02) << "re-fusing the same view adds almost nothing";
+  double confidence_after = 0;
+  for (const auto& sf : model.download(stream())) confidence_after += sf.confidence;
+  EXPECT_GT(confidence_after, confidence_before * 1.8);
+}
+
+TEST_F(SurfelKernels, ModelTooLargeForTheDeviceFailsWithItsId) {
+  slam::SurfelModel model(ctx(), 7, 1024);
+  try {
+    model.reserve(stream(), model.max_capacity() + 1u);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("model 7"));
+  }
+}
+
+}  // namespace
+}  // namespace cofusion::test
