@@ -1,0 +1,29 @@
+// open_source(): maps "scheme:path" on the command line to a FrameSource. Parsing and the
+// recorded kinds live in io/source_spec.h; synthetic scenes come from the generator library.
+#include "commands/sources.h"
+
+#include "common/error.h"
+#include "io/source_adaptors.h"
+#include "io/source_spec.h"
+#include "synthetic/synthetic_source.h"
+
+namespace cofusion {
+
+std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOptions& options) {
+  if (options.max_frames && *options.max_frames < 0)
+    throw Error("input '" + spec + "': --max-frames must not be negative");
+  const SourceSpec parsed = parse_source_spec(spec);
+  std::unique_ptr<FrameSource> source;
+  if (parsed.scheme == "synthetic") {
+    if (!options.intrinsics.empty())
+      throw Error("input '" + spec + "': --intrinsics does not apply to synthetic scenes (the scene sets its camera)");
+    source = synthetic::make_synthetic_source(parsed.path, options.seed, options.max_frames);
+  } else {
+    source = open_recorded_source(parsed, options.intrinsics);
+  }
+  // Every source honours max_frames, whether or not it could stop early by itself.
+  if (options.max_frames) source = std::make_unique<LimitedSource>(std::move(source), *options.max_frames);
+  return source;
+}
+
+}  // namespace cofusion

@@ -1,0 +1,42 @@
+#pragma once
+// Where a source's intrinsics come from: the --intrinsics option ("fx,fy,cx,cy[,w,h]", a preset
+// name or a calibration file), a calibration file beside the data, or a preset guessed from the
+// folder name. Each choice remembers its origin so describe() can say which was used.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "common/intrinsics.h"
+
+namespace cofusion {
+
+struct IntrinsicsChoice {
+  Intrinsics intrinsics;
+  // True when width/height were given (preset, 6-number option or file); otherwise the reader
+  // takes the image size from its first frame and the 640x480 default only stands in until then.
+  bool size_known = false;
+  std::string origin;  // for the terminal, e.g. "fr2 preset (guessed from the path)"
+};
+
+// Presets of the TUM RGB-D cameras and the PrimeSense factory default, all 640x480:
+//   fr1 517.3 516.5 318.6 255.3 | fr2 520.9 521.0 325.1 249.7 | fr3 535.4 539.2 320.1 247.6 |
+//   primesense 525 525 319.5 239.5. "freiburg1".."freiburg3" are accepted as aliases.
+std::optional<Intrinsics> intrinsics_preset(std::string_view name);
+
+// A calibration file holding "fx fy cx cy [w h]" (whitespace separated, '#' comments allowed).
+// Throws cofusion::Error naming the file when it is missing, malformed or implausible.
+IntrinsicsChoice read_calibration_file(const std::filesystem::path& path);
+
+// The --intrinsics option: "fx,fy,cx,cy" or "fx,fy,cx,cy,w,h", a preset name, or a calibration
+// file path. Throws cofusion::Error quoting the option when it is none of those or implausible.
+IntrinsicsChoice parse_intrinsics_option(const std::string& option);
+
+// The TUM preset named by a folder path ("freiburg2" or "fr2" as a word in any component, the
+// deepest component first), e.g. "rgbd_dataset_freiburg1_rpy" -> "fr1".
+std::optional<std::string> guess_tum_preset(const std::filesystem::path& folder);
+
+// Throws cofusion::Error "<where>: implausible intrinsics ..." unless k.plausible().
+void require_plausible(const Intrinsics& k, const std::string& where);
+
+}  // namespace cofusion

@@ -1,0 +1,45 @@
+#pragma once
+// Small FrameSource building blocks: a frame-count limit around any source, and frames held in
+// memory (tests, and producers that build frames themselves).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/frame.h"
+
+namespace cofusion {
+
+// Yields at most `max_frames` frames of `inner` (max_frames >= 0); never reads past the limit.
+class LimitedSource : public FrameSource {
+ public:
+  LimitedSource(std::unique_ptr<FrameSource> inner, int max_frames);
+
+  std::optional<Frame> next() override;
+  Intrinsics intrinsics() const override { return inner_->intrinsics(); }
+  std::optional<int> size() const override;
+  std::string describe() const override;
+
+ private:
+  std::unique_ptr<FrameSource> inner_;
+  int max_frames_;
+  int delivered_ = 0;
+};
+
+// Hands out the given frames in order (each frame's index is set to its position).
+class MemorySource : public FrameSource {
+ public:
+  MemorySource(std::vector<Frame> frames, Intrinsics intrinsics, std::string description = "memory");
+
+  std::optional<Frame> next() override;
+  Intrinsics intrinsics() const override { return intrinsics_; }
+  std::optional<int> size() const override { return static_cast<int>(frames_.size()); }
+  std::string describe() const override;
+
+ private:
+  std::vector<Frame> frames_;
+  Intrinsics intrinsics_;
+  std::string description_;
+  std::size_t next_ = 0;
+};
+
+}  // namespace cofusion

@@ -1,0 +1,320 @@
+#include "io/tum_source.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <functional>
+
+#include "common/error.h"
+#include "io/trajectory_lookup.h"
+#include "io_fixtures.h"
+#include "support/test_support.h"
+
+namespace cofusion {
+namespace {
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+std::string stamp(double t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6f", t);
+  return buf;
+}
+
+// A TUM folder of `n` 32x24 frames at 30 Hz starting at t0; depth 5 ms after each rgb. Returns the
+// frames as written (depth quantised to 1/5000 m).
+struct TumFixture {
+  fs::path dir;
+  std::vector<Frame> frames;
+};
+
+TumFixture write_tum_fixture(int n, bool associations, double t0 = 100.0) {
+  TumFixture fx{test::fresh_temp_dir(), {}};
+  std::string rgb_txt = "# color images\n", depth_txt = "# depth maps\n", assoc;
+  for (int i = 0; i < n; ++i) {
+    const double t = t0 + i / 30.0;
+    Frame f = test::make_test_frame(32, 24, i, t);
+    const std::string rgb_name = "rgb/" + stamp(t) + ".png", depth_name = "depth/" + stamp(t + 0.005) + ".png";
+    test::write_bgr_png(fx.dir / rgb_name, f.rgb);
+    test::write_png(fx.dir / depth_name, test::depth_units(f.depth_m, 5000));
+    rgb_txt += stamp(t) + " " + rgb_name + "\n";
+    depth_txt += stamp(t + 0.005) + " " + depth_name + "\n";
+    assoc += stamp(t) + " " + rgb_name + " " + stamp(t + 0.005) + " " + depth_name + "\n";
+    fx.frames.push_back(f);
+  }
+  test::write_text(fx.dir / "rgb.txt", rgb_txt);
+  test::write_text(fx.dir / "depth.txt", depth_txt);
+  if (associations) test::write_text(fx.dir / "associations.txt", assoc);
+  test::write_text(fx.dir / "calibration.txt", "30 30 15.5 11.5\n");
+  return fx;
+}
+
+void expect_frames_match(TumSource& source, const std::vector<Frame>& expected) {
+  for (const Frame& e : expected) {
+    auto f = source.next();
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->index, e.index);
+    EXPECT_NEAR(f->timestamp_s, e.timestamp_s, 1e-6);
+    ASSERT_EQ(f->rgb.type(), CV_8UC3);
+    ASSERT_EQ(f->depth_m.type(), CV_32FC1);
+    EXPECT_EQ(cv::norm(f->rgb, e.rgb, cv::NORM_INF), 0.0) << "frame " << e.index;
+    EXPECT_LT(cv::norm(f->depth_m, e.depth_m, cv::NORM_INF), 1e-4) << "frame " << e.index;
+  }
+  EXPECT_FALSE(source.next());
+}
+
+TEST(TumSource, ReadsAssociationsTxt) {
+  const auto fx = write_tum_fixture(4, true);
+  TumSource source(fx.dir);
+  EXPECT_EQ(source.size(), 4);
+  EXPECT_EQ(source.intrinsics().width, 32);  // calibration.txt without size: from the first image
+  EXPECT_EQ(source.intrinsics().height, 24);
+  EXPECT_DOUBLE_EQ(source.intrinsics().fx, 30);
+  EXPECT_THAT(source.describe(), HasSubstr("associations.txt"));
+  EXPECT_THAT(source.describe(), HasSubstr("calibration.txt"));
+  expect_frames_match(source, fx.frames);
+}
+
+TEST(TumSource, MatchesRgbAndDepthByTimeWithoutAssociations) {
+  auto fx = write_tum_fixture(4, false);
+  // An rgb with no depth within 0.02 s, and a depth with no rgb: both are left out.
+  const Frame extra = test::make_test_frame(32, 24, 9, 200.0);
+  test::write_bgr_png(fx.dir / "rgb/200.000000.png", extra.rgb);
+  test::write_png(fx.dir / "depth/300.000000.png", test::depth_units(extra.depth_m, 5000));
+  std::ofstream(fx.dir / "rgb.txt", std::ios::app) << "200.000000 rgb/200.000000.png\n";
+  std::ofstream(fx.dir / "depth.txt", std::ios::app) << "300.000000 depth/300.000000.png\n";
+  TumSource source(fx.dir);
+  EXPECT_EQ(source.size(), 4);
+  EXPECT_THAT(source.describe(), HasSubstr("matched by time"));
+  expect_frames_match(source, fx.frames);
+}
+
+TEST(TumAssociate, EachImageUsedOnceClosestFirst) {
+  const std::vector<TimedFile> rgb = {{1.000, "a"}, {1.010, "b"}, {2.0, "c"}, {3.0, "d"}};
+  const std::vector<TimedFile> depth = {{1.012, "x"}, {2.019, "y"}, {2.9, "z"}};
+  const auto pairs = associate_by_time(rgb, depth, 0.02);
+  // b-x (2 ms) wins over a-x (12 ms), so a stays unpaired; c-y is 19 ms; d-z is 100 ms: too far.
+  ASSERT_EQ(pairs.size(), 2u);
+  EXPECT_EQ(pairs[0].rgb.file, "b");
+  EXPECT_EQ(pairs[0].depth.file, "x");
+  EXPECT_EQ(pairs[1].rgb.file, "c");
+  EXPECT_EQ(pairs[1].depth.file, "y");
+}
+
+TEST(TumAssociations, DepthFirstColumnsAreSwapped) {
+  const auto dir = test::fresh_temp_dir();
+  test::write_text(dir / "a.txt", "# comment\n1.5 depth/1.png 1.49 rgb/1.png\n");
+  const auto a = read_tum_associations(dir / "a.txt");
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].rgb.file, "rgb/1.png");
+  EXPECT_DOUBLE_EQ(a[0].rgb.timestamp_s, 1.49);
+  test::write_text(dir / "bad.txt", "1.5 rgb/1.png\n");
+  EXPECT_THAT(error_of([&] { read_tum_associations(dir / "bad.txt"); }), HasSubstr("bad.txt:1"));
+}
+
+TEST(TumSource, GroundTruthInterpolatedOrNearest) {
+  auto fx = write_tum_fixture(3, true);
+  const double t0 = fx.frames[0].timestamp_s, t1 = fx.frames[1].timestamp_s;
+  // Frame 0 between samples 5 ms either side (interpolated); frame 1 only 15 ms after a sample
+  // (nearest); frame 2 has no sample within 20 ms.
+  test::write_text(fx.dir / "groundtruth.txt",
+                   "# timestamp tx ty tz qx qy qz qw\n" + stamp(t0 - 0.005) + " 0 0 0 0 0 0 1\n" + stamp(t0 + 0.005) +
+                       " 1 2 0 0 0 0.7071067811865476 0.7071067811865476\n" + stamp(t1 - 0.015) + " 5 5 5 0 0 0 1\n");
+  TumSource source(fx.dir);
+  EXPECT_TRUE(source.has_groundtruth());
+  auto f0 = source.next();
+  ASSERT_TRUE(f0 && f0->T_world_camera_gt);
+  EXPECT_NEAR(f0->T_world_camera_gt->translation().x(), 0.5, 1e-3);
+  EXPECT_NEAR(f0->T_world_camera_gt->translation().y(), 1.0, 1e-3);
+  EXPECT_NEAR(Eigen::AngleAxisd(f0->T_world_camera_gt->rotation()).angle(), M_PI / 4, 1e-3);  // half of 90 deg
+  auto f1 = source.next();
+  ASSERT_TRUE(f1 && f1->T_world_camera_gt);
+  EXPECT_NEAR(f1->T_world_camera_gt->translation().z(), 5.0, 1e-9);
+  auto f2 = source.next();
+  ASSERT_TRUE(f2);
+  EXPECT_FALSE(f2->T_world_camera_gt);
+}
+
+TEST(TumSource, MasksFolderGivesMasks) {
+  auto fx = write_tum_fixture(2, true);
+  for (const Frame& f : fx.frames) {
+    cv::Mat mask(24, 32, CV_16UC1, cv::Scalar(0));
+    mask(cv::Rect(4, 4, 8, 8)).setTo(f.index + 300);  // ids above 255 must survive
+    test::write_png(fx.dir / "masks" / (stamp(f.timestamp_s) + ".png"), mask);
+  }
+  TumSource source(fx.dir);
+  EXPECT_THAT(source.describe(), HasSubstr("masks"));
+  auto f = source.next();
+  ASSERT_TRUE(f);
+  ASSERT_EQ(f->mask.type(), CV_16UC1);
+  EXPECT_EQ(f->mask.at<std::uint16_t>(5, 5), 300);
+  EXPECT_EQ(f->mask.at<std::uint16_t>(20, 20), 0);
+
+  fs::remove(fx.dir / "masks" / (stamp(fx.frames[1].timestamp_s) + ".png"));
+  EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(stamp(fx.frames[1].timestamp_s) + ".png"));
+}
+
+TEST(TumSource, IntrinsicsOptionAndDefaults) {
+  const auto fx = write_tum_fixture(1, true);
+  {
+    TumSourceOptions o;
+    o.intrinsics = "40,41,16,12";
+    TumSource source(fx.dir, o);
+    EXPECT_DOUBLE_EQ(source.intrinsics().fy, 41);
+    EXPECT_EQ(source.intrinsics().width, 32);
+  }
+  fs::remove(fx.dir / "calibration.txt");
+  // No option, no calibration.txt, no fr1/2/3 in the path: primesense, and it says so. Its
+  // 640x480 then contradicts the 32x24 images, which fails naming the image.
+  TumSource source(fx.dir);
+  EXPECT_THAT(source.describe(), HasSubstr("primesense default"));
+  const std::string msg = error_of([&] { source.next(); });
+  EXPECT_THAT(msg, HasSubstr(stamp(fx.frames[0].timestamp_s) + ".png"));
+  EXPECT_THAT(msg, HasSubstr("32x24, expected 640x480"));
+}
+
+TEST(TumSource, BadInputNamesTheFile) {
+  EXPECT_THAT(error_of([] { TumSource s("/nonexistent/tum_folder"); }), HasSubstr("/nonexistent/tum_folder"));
+  {
+    const auto dir = test::fresh_temp_dir();
+    test::write_text(dir / "rgb.txt", "1.0 rgb/1.png\n");
+    EXPECT_THAT(error_of([&] { TumSource s(dir); }), HasSubstr("depth.txt"));
+    test::write_text(dir / "depth.txt", "1.0 depth/1.png\nnot-a-time depth/2.png\n");
+    EXPECT_THAT(error_of([&] { TumSource s(dir); }), HasSubstr("depth.txt:2"));
+  }
+  {
+    auto fx = write_tum_fixture(2, true);
+    const fs::path depth1 = fx.dir / ("depth/" + stamp(fx.frames[1].timestamp_s + 0.005) + ".png");
+    fs::remove(depth1);
+    EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(depth1.string()));
+    // Depth of the wrong size, then depth with 8 bits.
+    test::write_png(depth1, cv::Mat(12, 16, CV_16UC1, cv::Scalar(5000)));
+    TumSource s(fx.dir);
+    ASSERT_TRUE(s.next());
+    std::string msg = error_of([&] { s.next(); });
+    EXPECT_THAT(msg, HasSubstr(depth1.string()));
+    EXPECT_THAT(msg, HasSubstr("16x12"));
+    test::write_png(depth1, cv::Mat(24, 32, CV_8UC1, cv::Scalar(5)));
+    TumSource s2(fx.dir);
+    ASSERT_TRUE(s2.next());
+    msg = error_of([&] { s2.next(); });
+    EXPECT_THAT(msg, HasSubstr(depth1.string()));
+    EXPECT_THAT(msg, HasSubstr("8UC1"));
+    // A corrupt colour file.
+    const fs::path rgb0 = fx.dir / ("rgb/" + stamp(fx.frames[0].timestamp_s) + ".png");
+    test::write_text(rgb0, "not a png");
+    // (The first colour image is read when the source opens, for the image size.)
+    EXPECT_THAT(error_of([&] { TumSource s3(fx.dir); }), HasSubstr(rgb0.string()));
+  }
+  {
+    auto fx = write_tum_fixture(1, true);
+    test::write_text(fx.dir / "associations.txt", "");
+    EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr("no rgb/depth pairs"));
+  }
+}
+
+// --- The real recordings -------------------------------------------------------------------
+
+struct DepthStats {
+  double valid_fraction = 0, median_m = 0, max_m = 0;
+};
+DepthStats depth_stats(const cv::Mat& depth_m) {
+  std::vector<float> v;
+  for (int y = 0; y < depth_m.rows; ++y)
+    for (int x = 0; x < depth_m.cols; ++x)
+      if (const float d = depth_m.at<float>(y, x); d > 0) v.push_back(d);
+  DepthStats s;
+  if (v.empty()) return s;
+  s.valid_fraction = static_cast<double>(v.size()) / static_cast<double>(depth_m.total());
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  s.median_m = v[v.size() / 2];
+  s.max_m = *std::max_element(v.begin(), v.end());
+  return s;
+}
+
+TEST(TumSource, RealFr2Desk50) {
+  const auto dir = test::data_dir("tum_fr2_desk_50");
+  if (!dir) GTEST_SKIP() << "tum_fr2_desk_50 not found (set COFUSION_DATA to the shared data folder)";
+  TumSource source(*dir);
+  EXPECT_EQ(source.size(), 50);
+  const Intrinsics k = source.intrinsics();
+  EXPECT_DOUBLE_EQ(k.fx, 520.9);
+  EXPECT_DOUBLE_EQ(k.fy, 521.0);
+  EXPECT_DOUBLE_EQ(k.cx, 325.1);
+  EXPECT_DOUBLE_EQ(k.cy, 249.7);
+  EXPECT_THAT(source.describe(), HasSubstr("fr2 preset (guessed from the path)"));
+  EXPECT_THAT(source.describe(), HasSubstr("ground truth"));
+
+  const Trajectory gt = read_tum_trajectory(*dir / "groundtruth.txt");
+  int n = 0;
+  double last_t = 0;
+  while (auto f = source.next()) {
+    EXPECT_EQ(f->index, n);
+    EXPECT_EQ(f->rgb.size(), cv::Size(640, 480));
+    EXPECT_EQ(f->depth_m.size(), cv::Size(640, 480));
+    EXPECT_TRUE(f->mask.empty());
+    if (n > 0) {
+      EXPECT_GT(f->timestamp_s, last_t);
+    }
+    last_t = f->timestamp_s;
+    const DepthStats s = depth_stats(f->depth_m);
+    EXPECT_GT(s.valid_fraction, 0.5) << "frame " << n;
+    EXPECT_GT(s.median_m, 0.5) << "frame " << n;  // a desk seen from about 1-2 m
+    EXPECT_LT(s.median_m, 4.0) << "frame " << n;
+    EXPECT_LE(s.max_m, 65535.0 / 5000) << "frame " << n;  // the 16-bit range
+    ASSERT_TRUE(f->T_world_camera_gt) << "frame " << n;
+    const auto expected = pose_at(gt, f->timestamp_s, 0.02);
+    ASSERT_TRUE(expected);
+    EXPECT_LT((f->T_world_camera_gt->matrix() - expected->matrix()).norm(), 1e-9);
+    ++n;
+  }
+  EXPECT_EQ(n, 50);
+  EXPECT_NEAR(last_t, 1311868166.0, 1.0);
+}
+
+TEST(TumSource, RealFr1Rpy200) {
+  const auto dir = test::data_dir("tum_fr1_rpy_200");
+  if (!dir) GTEST_SKIP() << "tum_fr1_rpy_200 not found (set COFUSION_DATA to the shared data folder)";
+  TumSource source(*dir);
+  EXPECT_EQ(source.size(), 200);
+  EXPECT_DOUBLE_EQ(source.intrinsics().fx, 517.3);
+  EXPECT_DOUBLE_EQ(source.intrinsics().cy, 255.3);
+  EXPECT_THAT(source.describe(), HasSubstr("fr1 preset"));
+  // The first frames only: every file was checked to exist when the source opened.
+  for (int i = 0; i < 5; ++i) {
+    auto f = source.next();
+    ASSERT_TRUE(f);
+    const DepthStats s = depth_stats(f->depth_m);
+    EXPECT_GT(s.valid_fraction, 0.3);
+    EXPECT_GT(s.median_m, 0.3);
+    EXPECT_LE(s.max_m, 65535.0 / 5000);
+    EXPECT_TRUE(f->T_world_camera_gt);
+  }
+}
+
+TEST(TumSource, RealFr2WithoutAssociationsMatchesTheShippedOnes) {
+  const auto dir = test::data_dir("tum_fr2_desk_50");
+  if (!dir) GTEST_SKIP() << "tum_fr2_desk_50 not found";
+  const auto shipped = read_tum_associations(*dir / "associations.txt");
+  const auto matched =
+      associate_by_time(read_tum_file_list(*dir / "rgb.txt"), read_tum_file_list(*dir / "depth.txt"), 0.02);
+  ASSERT_EQ(matched.size(), shipped.size());
+  for (std::size_t i = 0; i < shipped.size(); ++i) {
+    EXPECT_EQ(matched[i].rgb.file, shipped[i].rgb.file);
+    EXPECT_EQ(matched[i].depth.file, shipped[i].depth.file);
+  }
+}
+
+}  // namespace
+}  // namespace cofusion
