@@ -1,0 +1,121 @@
+#pragma once
+// Trajectory metrics of the TUM RGB-D benchmark, reproducing its reference scripts:
+//  - associate.py:     timestamp association (greedy on |dt|, each stamp used once);
+//  - evaluate_ate.py:  absolute trajectory error after a rigid (no scale) Horn alignment of the
+//                      matched positions;
+//  - evaluate_rpe.py:  relative pose error with --fixed_delta (pairs one delta apart).
+// Differences from the scripts: RPE uses every fixed-delta pair (the script randomly samples
+// 10000 when there are more), and RPE supports the units seconds and frames only; lines with a
+// zero quaternion or NaN are errors of read_tum_trajectory() where the RPE script skips them.
+//
+// Object trajectories (T_world_model from the system vs T_world_object ground truth) are compared by
+// compute_object_trajectory_errors(); see ObjectTrajectoryErrors for what each measure assumes.
+#include <cstddef>
+#include <vector>
+
+#include "eval/error_stats.h"
+#include "io/trajectory.h"
+
+namespace cofusion::eval {
+
+struct AssociationParams {
+  double max_difference_s = 0.02;  // associate.py --max_difference: a pair needs |dt| < this
+  double offset_s = 0.0;           // added to the second (estimated) trajectory's stamps
+};
+
+// A matched pair: indices into the first (ground-truth) and second (estimated) trajectory.
+struct TimestampMatch {
+  std::size_t first = 0;
+  std::size_t second = 0;
+};
+
+// Sorted by time; of several poses with the same stamp the last in the file wins (the scripts
+// read trajectories into a Python dict).
+Trajectory sorted_unique(const Trajectory& trajectory);
+
+// associate.py: every pair with |t_first - (t_second + offset)| < max_difference is a candidate;
+// candidates are taken in order of increasing |dt| (ties: earlier first stamp, then earlier second
+// stamp), skipping any whose stamps are already used. Result sorted by the first stamp.
+std::vector<TimestampMatch> associate_timestamps(const Trajectory& first, const Trajectory& second,
+                                                 const AssociationParams& params = {});
+
+// Horn's closed-form rigid alignment (rotation + translation, no scale) in double precision, as
+// evaluate_ate.py's align(): the T minimising sum |T * est[i] - gt[i]|^2. Needs >= 2 points of
+// equal count; throws cofusion::Error otherwise.
+Pose align_rigid(const std::vector<Eigen::Vector3d>& est_points, const std::vector<Eigen::Vector3d>& gt_points);
+
+struct AteParams {
+  AssociationParams association;
+};
+
+struct AteResult {
+  ErrorStats translation_m;  // per matched pair |T_gt_est * p_est - p_gt|
+  Pose T_gt_est = Pose::Identity();  // the alignment: maps estimated positions into the gt world
+  std::vector<double> stamps_gt_s;   // per matched pair, in time order
+  std::vector<double> stamps_est_s;
+  std::vector<double> errors_m;
+};
+
+// Throws cofusion::Error when fewer than 2 stamps match (as the script does).
+AteResult compute_ate(const Trajectory& gt, const Trajectory& est, const AteParams& params = {});
+
+enum class RpeDeltaUnit { seconds, frames };
+
+struct RpeParams {
+  double delta = 1.0;                          // evaluate_rpe.py --delta
+  RpeDeltaUnit unit = RpeDeltaUnit::seconds;   // --delta_unit s | f
+  double offset_s = 0.0;                       // added to the estimated stamps
+};
+
+struct RpeResult {
+  ErrorStats translation_m;
+  ErrorStats rotation_deg;
+  std::vector<double> stamps_est_s;  // first stamp of each evaluated pair
+};
+
+// Throws cofusion::Error when the trajectories hardly overlap or fewer than 2 pairs remain.
+RpeResult compute_rpe(const Trajectory& gt, const Trajectory& est, const RpeParams& params = {});
+
+// evaluate_rpe.py's find_closest_index (a binary search that remembers the closest value seen).
+// `sorted` must be ascending and non-empty. Exposed for tests.
+std::size_t find_closest_index(const std::vector<double>& sorted, double value);
+
+// An object's trajectory from the system (model-<id>.txt, T_world_model: the model frame is the
+// world frame at the time the object was first segmented, so T_world_model starts near identity)
+// against its ground truth (groundtruth-<id>.txt, T_world_object in the object's own frame). The
+// two frames are attached to the same rigid body but generally differ by a constant offset X
+// (T_world_model ~ A * T_world_object * X, with A the world alignment), so three measures:
+struct ObjectTrajectoryErrors {
+  // 1. ATE of the frame origins: the model origin's positions against the object origin's after
+  //    Horn's rigid alignment (exactly evaluate_ate.py). Unbiased only when the two origins are
+  //    the same body point or the object does not rotate.
+  AteResult origin_ate;
+  // 2. Tracked-point ATE: the object's ground-truth origin, expressed in model coordinates
+  //    (gt_origin_in_model, estimated jointly with the rigid alignment by Levenberg-Marquardt
+  //    started from (1) and from a hand-eye solution; the better fit wins), is carried by
+  //    T_world_model and compared with the ground-truth origin.
+  //    Independent of where the system puts the model frame; never larger than (1). Needs clearly
+  //    more matched poses than its 9 parameters to mean anything.
+  ErrorStats tracked_point_m;
+  Eigen::Vector3d gt_origin_in_model = Eigen::Vector3d::Zero();
+  Pose T_gt_est_tracked_point = Pose::Identity();
+  // 3. Relative motion from the first matched time t0: T_world_model(t0)^-1 T_world_model(t) vs
+  //    T_world_object(t0)^-1 T_world_object(t), error = inv(est) * gt as in RPE, for every later
+  //    matched t. Needs no world alignment; equal motions give zero only when the model and object
+  //    frames coincide up to a translation for the rotation part, and coincide fully for the
+  //    translation part ((I - R) * offset otherwise).
+  ErrorStats relative_translation_m;
+  ErrorStats relative_rotation_deg;
+};
+
+struct ObjectTrajectoryParams {
+  AssociationParams association;
+  int max_iterations = 100;            // tracked-point Levenberg-Marquardt iterations
+  double convergence_rmse_m = 1e-12;   // stop when an iteration improves the RMSE by less than this
+};
+
+// Throws cofusion::Error when fewer than 2 stamps match.
+ObjectTrajectoryErrors compute_object_trajectory_errors(const Trajectory& gt_object, const Trajectory& est_model,
+                                                        const ObjectTrajectoryParams& params = {});
+
+}  // namespace cofusion::eval

@@ -1,0 +1,312 @@
+#include "eval/trajectory_metrics.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <random>
+
+#include "common/error.h"
+#include "support/test_support.h"
+
+namespace cofusion::eval {
+namespace {
+
+Pose make_pose(double yaw, double pitch, double roll, const Eigen::Vector3d& t) {
+  Pose T = Pose::Identity();
+  T.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+// A smooth, non-planar hand-held-like trajectory sampled at `rate_hz`.
+Trajectory wobbly_trajectory(int n, double rate_hz, double t0 = 100.0) {
+  Trajectory out;
+  for (int i = 0; i < n; ++i) {
+    const double t = i / rate_hz;
+    out.push_back({t0 + t, make_pose(0.3 * std::sin(t), 0.2 * std::cos(0.7 * t), 0.1 * t,
+                                     Eigen::Vector3d(std::sin(t), 0.5 * std::cos(1.3 * t), 0.2 * t))});
+  }
+  return out;
+}
+
+Trajectory transformed(const Trajectory& in, const Pose& T_left) {
+  Trajectory out = in;
+  for (auto& p : out) p.T_world_x = T_left * p.T_world_x;
+  return out;
+}
+
+TEST(TrajectoryConformance, Freiburg1XyzRgbdslamMatchesTumScripts) {
+  const auto dir = test::data_dir("trajectories");
+  if (!dir) GTEST_SKIP() << "COFUSION_DATA/trajectories not found";
+  const Trajectory gt = read_tum_trajectory(*dir / "freiburg1_xyz-groundtruth.txt");
+  const Trajectory est = read_tum_trajectory(*dir / "freiburg1_xyz-rgbdslam.txt");
+
+  const AteResult ate = compute_ate(gt, est);
+  EXPECT_EQ(ate.translation_m.count, 786u);
+  EXPECT_NEAR(ate.translation_m.rmse, 0.013473, 1e-5);
+  EXPECT_NEAR(ate.translation_m.mean, 0.012029, 1e-5);
+  EXPECT_NEAR(ate.translation_m.median, 0.011176, 1e-5);
+  EXPECT_NEAR(ate.translation_m.max, 0.034727, 1e-5);
+
+  const RpeResult rpe = compute_rpe(gt, est);
+  EXPECT_EQ(rpe.translation_m.count, 753u);
+  EXPECT_NEAR(rpe.translation_m.rmse, 0.021217, 1e-5);
+  EXPECT_NEAR(rpe.rotation_deg.rmse, 0.934480, 1e-5);
+}
+
+TEST(Ate, ExactlyTransformedTrajectoryHasZeroError) {
+  const Trajectory gt = wobbly_trajectory(200, 30);
+  const Trajectory est = transformed(gt, make_pose(1.0, -0.4, 2.0, Eigen::Vector3d(3, -2, 0.5)));
+  const AteResult ate = compute_ate(gt, est);
+  EXPECT_EQ(ate.translation_m.count, 200u);
+  EXPECT_LT(ate.translation_m.rmse, 1e-9);
+  EXPECT_LT(ate.translation_m.max, 1e-9);
+}
+
+TEST(Ate, RecoversAlignmentAndConstantOffsetAlongAxisIsRemoved) {
+  const Trajectory gt = wobbly_trajectory(150, 30);
+  const Pose T_est_gt = make_pose(-0.5, 0.2, 0.1, Eigen::Vector3d(0.3, 0.1, -1));
+  const AteResult ate = compute_ate(gt, transformed(gt, T_est_gt));
+  EXPECT_TRUE(ate.T_gt_est.isApprox(T_est_gt.inverse(), 1e-9));
+}
+
+TEST(Ate, AlternatingOffsetGivesKnownError) {
+  // Each ground-truth position appears twice, estimated once d above and once d below its plane:
+  // no rigid motion reduces that (the best alignment is the identity) and every error is d.
+  Trajectory gt, est;
+  const double d = 0.05;
+  for (int i = 0; i < 100; ++i) {
+    const int k = i / 2;
+    const Eigen::Vector3d p(k * 0.1, std::sin(k * 0.3), 0.0);
+    gt.push_back({static_cast<double>(i), make_pose(0, 0, 0, p)});
+    est.push_back({static_cast<double>(i), make_pose(0, 0, 0, p + Eigen::Vector3d(0, 0, (i % 2 ? d : -d)))});
+  }
+  const AteResult ate = compute_ate(gt, est);
+  EXPECT_NEAR(ate.translation_m.rmse, d, 1e-9);
+  EXPECT_NEAR(ate.translation_m.mean, d, 1e-9);
+  EXPECT_NEAR(ate.translation_m.std, 0.0, 1e-9);
+}
+
+TEST(Ate, GaussianNoiseGivesExpectedRmse) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  const Trajectory gt = wobbly_trajectory(3000, 30);
+  Trajectory est = transformed(gt, make_pose(0.3, 0.0, 0.0, Eigen::Vector3d(1, 2, 3)));
+  for (auto& p : est) p.T_world_x.translation() += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  const AteResult ate = compute_ate(gt, est);
+  // E|n|^2 = 3 sigma^2; alignment absorbs 6 of 9000 degrees of freedom.
+  EXPECT_NEAR(ate.translation_m.rmse, 0.01 * std::sqrt(3.0), 0.0006);
+}
+
+TEST(Association, GreedyBySmallestDifferenceEachStampOnce) {
+  Trajectory first, second;
+  for (double t : {1.00, 1.03, 2.00}) first.push_back({t, Pose::Identity()});
+  // Candidates: (1.00,1.012) and (1.03,1.018) at 0.012 are taken first, which uses up the 0.018 ones.
+  for (double t : {1.012, 1.018, 2.5}) second.push_back({t, Pose::Identity()});
+  const auto m = associate_timestamps(first, second);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_EQ(m[0].first, 0u);
+  EXPECT_EQ(m[0].second, 0u);
+  EXPECT_EQ(m[1].first, 1u);
+  EXPECT_EQ(m[1].second, 1u);
+}
+
+TEST(Association, StrictMaxDifferenceAndOffset) {
+  Trajectory first = {{10.0, Pose::Identity()}}, second = {{10.5, Pose::Identity()}};
+  EXPECT_TRUE(associate_timestamps(first, second).empty());
+  AssociationParams p;
+  p.offset_s = -0.49;  // 10.5 - 0.49 = 10.01: within 0.02
+  EXPECT_EQ(associate_timestamps(first, second, p).size(), 1u);
+  p.offset_s = -0.5;
+  p.max_difference_s = 0.0625;  // exact in binary: |dt| = 0 < 0.0625
+  EXPECT_EQ(associate_timestamps(first, second, p).size(), 1u);
+  // |dt| == max_difference is not a match (strict '<' as associate.py).
+  Trajectory a = {{1.0, Pose::Identity()}}, b = {{1.0625, Pose::Identity()}};
+  AssociationParams q;
+  q.max_difference_s = 0.0625;
+  EXPECT_TRUE(associate_timestamps(a, b, q).empty());
+}
+
+TEST(Association, OneCandidateStampTakenByTheCloserPartner) {
+  // 1.00 and 1.01 both want 1.006; 1.01 is closer (0.004), so 1.00 stays unmatched.
+  Trajectory first = {{1.00, Pose::Identity()}, {1.01, Pose::Identity()}}, second = {{1.006, Pose::Identity()}};
+  const auto m = associate_timestamps(first, second);
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].first, 1u);
+}
+
+TEST(Association, ResultSortedByTimeForUnsortedInput) {
+  Trajectory first = {{3.0, Pose::Identity()}, {1.0, Pose::Identity()}, {2.0, Pose::Identity()}};
+  Trajectory second = {{2.001, Pose::Identity()}, {0.999, Pose::Identity()}, {3.002, Pose::Identity()}};
+  const auto m = associate_timestamps(first, second);
+  ASSERT_EQ(m.size(), 3u);
+  EXPECT_EQ(first[m[0].first].timestamp_s, 1.0);
+  EXPECT_EQ(first[m[1].first].timestamp_s, 2.0);
+  EXPECT_EQ(first[m[2].first].timestamp_s, 3.0);
+  EXPECT_EQ(second[m[0].second].timestamp_s, 0.999);
+}
+
+TEST(Association, DuplicateStampsKeepTheLastPose) {
+  Trajectory t = {{1.0, make_pose(0, 0, 0, Eigen::Vector3d(1, 0, 0))}, {1.0, make_pose(0, 0, 0, Eigen::Vector3d(2, 0, 0))},
+                  {0.5, Pose::Identity()}};
+  const Trajectory u = sorted_unique(t);
+  ASSERT_EQ(u.size(), 2u);
+  EXPECT_EQ(u[0].timestamp_s, 0.5);
+  EXPECT_EQ(u[1].T_world_x.translation().x(), 2.0);
+}
+
+TEST(Ate, NoMatchingStampsIsAClearError) {
+  const Trajectory gt = wobbly_trajectory(10, 30, 0.0);
+  const Trajectory est = wobbly_trajectory(10, 30, 1000.0);
+  try {
+    compute_ate(gt, est);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("match"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(compute_ate({}, est), Error);
+  EXPECT_THROW(compute_ate(gt, {}), Error);
+  EXPECT_THROW(compute_ate(gt, Trajectory(est.begin(), est.begin() + 1)), Error);
+}
+
+TEST(Rpe, ExactlyTransformedTrajectoryHasZeroError) {
+  const Trajectory gt = wobbly_trajectory(300, 30);
+  const Trajectory est = transformed(gt, make_pose(0.7, 0.1, -0.3, Eigen::Vector3d(1, 1, 1)));
+  const RpeResult rpe = compute_rpe(gt, est);
+  // Pairs 1 s (30 frames) apart, minus the script's exclusion of pairs ending at the last pose.
+  EXPECT_EQ(rpe.translation_m.count, 269u);
+  EXPECT_LT(rpe.translation_m.max, 1e-9);
+  EXPECT_LT(rpe.rotation_deg.max, 1e-5);
+}
+
+TEST(Rpe, ConstantExtraRotationPerFrameInFrames) {
+  // The estimate turns an extra 0.5 degree about z per frame: with delta = 1 frame each pair's
+  // rotational error is 0.5 degree and, as the camera is at the origin, no translational error.
+  Trajectory gt, est;
+  for (int i = 0; i < 50; ++i) {
+    gt.push_back({i * 0.1, Pose::Identity()});
+    est.push_back({i * 0.1, make_pose(i * 0.5 * std::numbers::pi / 180, 0, 0, Eigen::Vector3d::Zero())});
+  }
+  RpeParams p;
+  p.delta = 1;
+  p.unit = RpeDeltaUnit::frames;
+  const RpeResult rpe = compute_rpe(gt, est, p);
+  EXPECT_EQ(rpe.translation_m.count, 48u);
+  EXPECT_NEAR(rpe.rotation_deg.rmse, 0.5, 1e-9);
+  EXPECT_NEAR(rpe.translation_m.rmse, 0.0, 1e-12);
+}
+
+TEST(Rpe, TooShortForDeltaIsAnError) {
+  const Trajectory gt = wobbly_trajectory(20, 30);  // 0.63 s
+  EXPECT_THROW(compute_rpe(gt, gt), Error);
+  EXPECT_THROW(compute_rpe(gt, wobbly_trajectory(20, 30, 5000.0)), Error);
+}
+
+TEST(Rpe, FindClosestIndexMatchesScript) {
+  const std::vector<double> v = {0.0, 1.0, 2.0, 3.0, 10.0};
+  EXPECT_EQ(find_closest_index(v, -5.0), 0u);
+  EXPECT_EQ(find_closest_index(v, 1.4), 1u);
+  EXPECT_EQ(find_closest_index(v, 1.6), 2u);
+  EXPECT_EQ(find_closest_index(v, 3.0), 3u);
+  EXPECT_EQ(find_closest_index(v, 7.0), 4u);
+  EXPECT_EQ(find_closest_index(v, 100.0), 4u);
+}
+
+TEST(ObjectTrajectory, IdenticalFramesGiveZeroForAllMeasures) {
+  const Trajectory gt = wobbly_trajectory(100, 30);
+  const auto r = compute_object_trajectory_errors(gt, gt);
+  EXPECT_LT(r.origin_ate.translation_m.rmse, 1e-9);
+  EXPECT_LT(r.tracked_point_m.rmse, 1e-9);
+  EXPECT_LT(r.relative_translation_m.max, 1e-9);
+  EXPECT_LT(r.relative_rotation_deg.max, 1e-5);
+  EXPECT_EQ(r.relative_translation_m.count, 99u);
+}
+
+TEST(ObjectTrajectory, ModelFrameOffsetIsAbsorbedByTrackedPoint) {
+  // The system's model frame: world frame at first sight, T_world_model(t) =
+  // T_world_object(t) * T_world_object(t0)^-1 (identity at t0). Its origin is a different body
+  // point than the object's origin, so the origin ATE is biased while the tracked-point ATE is 0.
+  const Trajectory gt = wobbly_trajectory(120, 30);
+  Trajectory est = gt;
+  const Pose T0_inv = gt.front().T_world_x.inverse();
+  for (auto& p : est) p.T_world_x = p.T_world_x * T0_inv;
+  const auto r = compute_object_trajectory_errors(gt, est);
+  EXPECT_GT(r.origin_ate.translation_m.rmse, 0.01);
+  EXPECT_LT(r.tracked_point_m.rmse, 1e-6);
+  EXPECT_LE(r.tracked_point_m.rmse, r.origin_ate.translation_m.rmse);
+  // The recovered point is the object's origin in model (= first-sight world) coordinates.
+  EXPECT_TRUE(r.gt_origin_in_model.isApprox(gt.front().T_world_x.translation(), 1e-4))
+      << r.gt_origin_in_model.transpose();
+}
+
+TEST(ObjectTrajectory, TrackedPointRecoversArbitraryFramesUnderNoise) {
+  // T_world_model = A^-1 * T_world_object * X for random world alignments A and body offsets X,
+  // plus 2 mm position noise: the tracked-point ATE must find the noise level, every time.
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> angle(-3.0, 3.0), offset(-1.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Trajectory gt = wobbly_trajectory(150, 30);
+    const Pose A = make_pose(angle(rng), angle(rng) / 2, angle(rng), Eigen::Vector3d(offset(rng), offset(rng), offset(rng)));
+    const Pose X = make_pose(angle(rng), angle(rng) / 2, angle(rng), Eigen::Vector3d(offset(rng), offset(rng), offset(rng)));
+    Trajectory est = gt;
+    for (auto& p : est) {
+      p.T_world_x = A.inverse() * p.T_world_x * X;
+      p.T_world_x.translation() += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    }
+    const auto r = compute_object_trajectory_errors(gt, est);
+    EXPECT_LT(r.tracked_point_m.rmse, 0.0045) << "trial " << trial;
+    EXPECT_LE(r.tracked_point_m.rmse, r.origin_ate.translation_m.rmse + 1e-12);
+  }
+}
+
+TEST(ObjectTrajectory, TranslatingObjectWithoutRotation) {
+  // No rotation: the tracked point cannot be told from the alignment's translation; all measures
+  // must still be zero for an exact copy shifted in space.
+  Trajectory gt;
+  for (int i = 0; i < 60; ++i) gt.push_back({i / 30.0, make_pose(0.4, 0, 0, Eigen::Vector3d(0.01 * i, std::sin(0.1 * i), 0.3))});
+  Trajectory est = transformed(gt, make_pose(0, 0, 0, Eigen::Vector3d(1, 2, 3)));
+  const auto r = compute_object_trajectory_errors(gt, est);
+  EXPECT_LT(r.origin_ate.translation_m.rmse, 1e-9);
+  EXPECT_LT(r.tracked_point_m.rmse, 1e-9);
+  EXPECT_LT(r.relative_translation_m.max, 1e-9);
+}
+
+TEST(ObjectTrajectory, RelativeMotionSeesTranslationNoise) {
+  const Trajectory gt = wobbly_trajectory(100, 30);
+  Trajectory est = gt;
+  for (std::size_t i = 1; i < est.size(); ++i) est[i].T_world_x.translation() += est[i].T_world_x.linear() * Eigen::Vector3d(0.02, 0, 0);
+  const auto r = compute_object_trajectory_errors(gt, est);
+  // est(t0)^-1 est(t) = gt(t0)^-1 gt(t) * [I, (0.02,0,0)]: error translation exactly 0.02 m.
+  EXPECT_NEAR(r.relative_translation_m.rmse, 0.02, 1e-9);
+  EXPECT_NEAR(r.relative_rotation_deg.rmse, 0.0, 1e-5);
+}
+
+TEST(TrajectoryFiles, BadInputsNameTheFile) {
+  const auto dir = test::fresh_temp_dir();
+  EXPECT_THROW(read_tum_trajectory(dir / "missing.txt"), Error);
+  {
+    std::ofstream f(dir / "bad.txt");
+    f << "# comment\n1.0 0 0 0 0 0 0 1\n2.0 0 0 zero 0 0 0 1\n";
+  }
+  try {
+    read_tum_trajectory(dir / "bad.txt");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.txt"), std::string::npos) << e.what();
+  }
+  {
+    std::ofstream f(dir / "empty.txt");
+    f << "# nothing here\n";
+  }
+  const Trajectory empty = read_tum_trajectory(dir / "empty.txt");
+  EXPECT_TRUE(empty.empty());
+  EXPECT_THROW(compute_ate(wobbly_trajectory(10, 30), empty), Error);
+}
+
+}  // namespace
+}  // namespace cofusion::eval
