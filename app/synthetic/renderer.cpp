@@ -1,0 +1,335 @@
+#include "synthetic/renderer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "common/error.h"
+
+namespace cofusion::synthetic {
+namespace {
+
+// One primitive prepared for one frame: everything the per-pixel loop needs, in float, in the
+// primitive's frame. The ray direction of pixel (u, v) is d = d0 + u du + v dv (camera-z = 1, so the
+// hit parameter t is the camera-frame depth).
+struct FramePrimitive {
+  const Primitive* primitive = nullptr;
+  ShapeF shape;
+  Eigen::Vector3f origin, d0, du, dv;
+  Eigen::Vector3f to_light;  // unit vector towards the light, primitive frame
+  Eigen::Matrix3f R_world_primitive;  // for background surface points in the world frame
+  Eigen::Vector3f t_world_primitive;
+  int u0 = 0, u1 = -1, v0 = 0, v1 = -1;  // conservative pixel rectangle it can cover
+};
+
+FramePrimitive prepare(const Primitive& p, const Pose& T_world_primitive, const Pose& T_world_camera,
+                       const Intrinsics& K, const Eigen::Vector3d& to_light_world) {
+  FramePrimitive f;
+  f.primitive = &p;
+  f.shape = shape_f(p);
+  const Pose T_primitive_camera = T_world_primitive.inverse() * T_world_camera;
+  const Eigen::Matrix3d R = T_primitive_camera.linear();
+  f.origin = T_primitive_camera.translation().cast<float>();
+  f.d0 = (R * Eigen::Vector3d(-K.cx / K.fx, -K.cy / K.fy, 1.0)).cast<float>();
+  f.du = (R.col(0) / K.fx).cast<float>();
+  f.dv = (R.col(1) / K.fy).cast<float>();
+  f.to_light = (T_world_primitive.linear().transpose() * to_light_world).cast<float>();
+  f.R_world_primitive = T_world_primitive.linear().cast<float>();
+  f.t_world_primitive = T_world_primitive.translation().cast<float>();
+
+  // Screen rectangle: project the corners of the shape's bounding box; a corner behind (or nearly
+  // at) the camera plane makes it cover the whole image. Rooms always do.
+  f.u0 = 0;
+  f.v0 = 0;
+  f.u1 = K.width - 1;
+  f.v1 = K.height - 1;
+  if (p.kind == PrimitiveKind::kRoom) return f;
+  Eigen::Vector3d half = p.half_extents_m;  // box
+  if (p.kind == PrimitiveKind::kSphere) half = Eigen::Vector3d::Constant(p.radius_m);
+  if (p.kind == PrimitiveKind::kCylinder) half = Eigen::Vector3d(p.radius_m, p.radius_m, p.half_height_m);
+  const Pose T_camera_primitive = T_primitive_camera.inverse();
+  double umin = std::numeric_limits<double>::infinity(), umax = -umin, vmin = umin, vmax = -umin;
+  for (int c = 0; c < 8; ++c) {
+    const Eigen::Vector3d corner((c & 1 ? 1 : -1) * half.x(), (c & 2 ? 1 : -1) * half.y(), (c & 4 ? 1 : -1) * half.z());
+    const Eigen::Vector3d q = T_camera_primitive * corner;
+    if (q.z() < 1e-3) return f;
+    const double u = K.fx * q.x() / q.z() + K.cx, v = K.fy * q.y() / q.z() + K.cy;
+    umin = std::min(umin, u);
+    umax = std::max(umax, u);
+    vmin = std::min(vmin, v);
+    vmax = std::max(vmax, v);
+  }
+  auto clamp_to = [](double x, int hi) { return static_cast<int>(std::clamp(x, -1.0, static_cast<double>(hi))); };
+  f.u0 = clamp_to(std::floor(umin) - 1, K.width);
+  f.u1 = clamp_to(std::ceil(umax) + 1, K.width - 1);
+  f.v0 = clamp_to(std::floor(vmin) - 1, K.height);
+  f.v1 = clamp_to(std::ceil(vmax) + 1, K.height - 1);
+  return f;
+}
+
+// Nearest-pixel lateral shift: P(k) = Phi((k + 1/2) / sigma) - Phi((k - 1/2) / sigma), |k| <= 3,
+// stored as a cumulative table so one uniform number picks the shift.
+struct LateralTable {
+  static constexpr int kMax = 3;
+  std::array<float, 2 * kMax + 1> cumulative{};
+  explicit LateralTable(double sigma_px) {
+    auto phi = [&](double x) { return 0.5 * std::erfc(-x / (sigma_px * std::numbers::sqrt2)); };
+    double total = 0;
+    std::array<double, 2 * kMax + 1> p{};
+    for (int k = -kMax; k <= kMax; ++k) {
+      p[k + kMax] = sigma_px > 0 ? phi(k + 0.5) - phi(k - 0.5) : (k == 0 ? 1.0 : 0.0);
+      total += p[k + kMax];
+    }
+    double acc = 0;
+    for (int i = 0; i < 2 * kMax + 1; ++i) {
+      acc += p[i] / total;
+      cumulative[i] = static_cast<float>(acc);
+    }
+    cumulative.back() = 2.0f;  // catch rounding: every uniform in [0, 1) falls somewhere
+  }
+  int shift(float uniform) const {  // branch-free: the shifts are unpredictable by design
+    int i = 0;
+    for (int k = 0; k < 2 * kMax; ++k) i += uniform >= cumulative[k];
+    return i - kMax;
+  }
+};
+
+// Standard normal numbers by table lookup: kNormalBits-bit equiprobable levels (the normal
+// quantiles at the bin centres, so the tails stop at +-3.5 sigma), rescaled to unit variance.
+// Identical on every platform once built, and much cheaper per pixel than Box-Muller.
+constexpr int kNormalBits = 12;
+
+std::vector<float> make_normal_table() {
+  const int n = 1 << kNormalBits;
+  std::vector<double> q(n);
+  double sum_sq = 0;
+  for (int i = 0; i < n; ++i) {
+    const double target = (i + 0.5) / n;  // quantile by bisection on the normal CDF
+    double lo = -8, hi = 8;
+    for (int it = 0; it < 48; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (0.5 * std::erfc(-mid / std::numbers::sqrt2) < target ? lo : hi) = mid;
+    }
+    q[i] = 0.5 * (lo + hi);
+    sum_sq += q[i] * q[i];
+  }
+  const double scale = 1.0 / std::sqrt(sum_sq / n);
+  std::vector<float> out(n);
+  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(q[i] * scale);
+  return out;
+}
+
+// acos on [0, 1] to about 7e-5 rad (Abramowitz & Stegun 4.4.45): plenty for a noise sigma, and
+// several times cheaper than acosf in the per-pixel loop.
+inline float fast_acos01(float x) {
+  return std::sqrt(1.0f - x) * (1.5707288f + x * (-0.2121144f + x * (0.0742610f - 0.0187293f * x)));
+}
+
+bool depth_noise_off(const KinectNoiseParams& n) {
+  return !n.axial && n.lateral_sigma_px <= 0 && n.disparity_subpixel <= 0 && n.max_incidence_deg >= 90 &&
+         n.edge_drop_probability <= 0 && n.min_depth_m <= 0 && n.max_depth_m <= 0;
+}
+
+// Zero-mean, unit-variance triangular number from 20 random bits (sum of two 10-bit uniforms).
+inline float triangular(uint32_t bits) {
+  constexpr float kInv = 1.0f / 1024.0f;
+  const float a = static_cast<float>(bits & 1023u) * kInv, b = static_cast<float>((bits >> 10) & 1023u) * kInv;
+  return (a + b - 1.0f + kInv) * 2.449489743f;  // variance of a + b is 1/6
+}
+
+enum Stream : uint64_t { kLateralStream = 0, kAxialStream = 1, kColorStream = 2 };
+
+inline uint64_t frame_key(unsigned seed, int frame, Stream stream) {
+  return mix64(mix64(seed) ^ (static_cast<uint64_t>(frame) * 0xD1B54A32D192ED03ull + stream));
+}
+inline uint64_t pixel_bits(uint64_t key, uint64_t index) { return mix64(key + index); }
+
+}  // namespace
+
+Renderer::Renderer(const SceneDescription& scene)
+    : intrinsics_(scene.camera.intrinsics), light_(scene.light), background_(background_primitives(scene)),
+      normal_table_(make_normal_table()) {
+  for (size_t k = 0; k < scene.objects.size(); ++k)
+    objects_.push_back(make_primitive(scene.objects[k].shape, scene.objects[k].texture, static_cast<int>(k + 1)));
+}
+
+RenderedFrame Renderer::render(const RenderRequest& req) const {
+  const Intrinsics& K = intrinsics_;
+  const int W = K.width, H = K.height;
+  if (req.T_world_objects.size() != objects_.size())
+    throw Error("synthetic render: " + std::to_string(req.T_world_objects.size()) + " object poses for " +
+                std::to_string(objects_.size()) + " objects");
+
+  const Eigen::Vector3d to_light_world = -light_.direction_world.normalized();
+  std::vector<FramePrimitive> prims;
+  prims.reserve(background_.size() + objects_.size());
+  for (const Primitive& p : background_)
+    prims.push_back(prepare(p, p.T_world_primitive, req.T_world_camera, K, to_light_world));
+  for (size_t k = 0; k < objects_.size(); ++k)
+    if (req.T_world_objects[k])
+      prims.push_back(prepare(objects_[k], *req.T_world_objects[k], req.T_world_camera, K, to_light_world));
+
+  RenderedFrame out;
+  out.rgb.create(H, W, CV_8UC3);
+  out.depth_true_m.create(H, W, CV_32FC1);
+  out.instance_ids.create(H, W, CV_16UC1);
+  out.cos_incidence.create(H, W, CV_32FC1);
+  cv::Mat& cos_incidence = out.cos_incidence;
+  if (req.surface_points) {
+    out.points_world.create(H, W, CV_32FC3);
+    out.points_object.create(H, W, CV_32FC3);
+  }
+
+  const float ambient = static_cast<float>(light_.ambient);
+  const float color_sigma = static_cast<float>(req.noise.color_sigma);
+  const uint64_t color_key = frame_key(req.seed, req.frame_index, kColorStream);
+  const Eigen::Matrix3f R_world_camera = req.T_world_camera.linear().cast<float>();
+  const Eigen::Vector3f t_world_camera = req.T_world_camera.translation().cast<float>();
+  const float fx = static_cast<float>(K.fx), fy = static_cast<float>(K.fy);
+  const float cx = static_cast<float>(K.cx), cy = static_cast<float>(K.cy);
+
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<const FramePrimitive*> active;
+    active.reserve(prims.size());
+    for (int v = rows.begin(); v < rows.end(); ++v) {
+      active.clear();
+      for (const FramePrimitive& f : prims)
+        if (v >= f.v0 && v <= f.v1 && f.u0 <= f.u1) active.push_back(&f);
+      auto* rgb = out.rgb.ptr<cv::Vec3b>(v);
+      auto* depth = out.depth_true_m.ptr<float>(v);
+      auto* ids = out.instance_ids.ptr<uint16_t>(v);
+      auto* cosines = cos_incidence.ptr<float>(v);
+      const float vf = static_cast<float>(v);
+      for (int u = 0; u < W; ++u) {
+        const float uf = static_cast<float>(u);
+        float t_best = std::numeric_limits<float>::infinity();
+        const FramePrimitive* best = nullptr;
+        for (const FramePrimitive* f : active) {
+          if (u < f->u0 || u > f->u1) continue;
+          const Eigen::Vector3f d = f->d0 + uf * f->du + vf * f->dv;
+          float t;
+          if (intersect(f->shape, f->origin, d, 1e-4f, t_best, t)) {
+            t_best = t;
+            best = f;
+          }
+        }
+        if (!best) {
+          rgb[u] = cv::Vec3b(0, 0, 0);
+          depth[u] = 0;
+          ids[u] = 0;
+          cosines[u] = 0;
+          if (req.surface_points) {
+            out.points_world.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(0, 0, 0);
+            out.points_object.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(0, 0, 0);
+          }
+          continue;
+        }
+        const Eigen::Vector3f d = best->d0 + uf * best->du + vf * best->dv;
+        const Eigen::Vector3f p = best->origin + t_best * d;
+        Eigen::Vector3f n = Eigen::Vector3f::UnitZ();
+        int flat_axis = -1;
+        surface_at(best->shape, p, n, flat_axis);
+        const float cos_ray = std::abs(n.dot(d)) / d.norm();
+        const float shade = ambient + (1.0f - ambient) * std::max(0.0f, n.dot(best->to_light));
+        Eigen::Vector3f c = texture_color(texture_of(*best->primitive, p, flat_axis), p, flat_axis) * shade;
+        if (color_sigma > 0) {
+          const uint64_t bits = pixel_bits(color_key, static_cast<uint64_t>(v) * W + u);
+          c += color_sigma * Eigen::Vector3f(triangular(static_cast<uint32_t>(bits)),
+                                             triangular(static_cast<uint32_t>(bits >> 20)),
+                                             triangular(static_cast<uint32_t>(bits >> 40)));
+        }
+        for (int ch = 0; ch < 3; ++ch) rgb[u][ch] = static_cast<uint8_t>(std::clamp(c[ch], 0.0f, 255.0f) + 0.5f);
+        depth[u] = t_best;
+        ids[u] = static_cast<uint16_t>(best->primitive->instance_id);
+        cosines[u] = cos_ray;
+        if (req.surface_points) {
+          const Eigen::Vector3f p_camera(t_best * (uf - cx) / fx, t_best * (vf - cy) / fy, t_best);
+          const Eigen::Vector3f pw = R_world_camera * p_camera + t_world_camera;
+          out.points_world.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(pw.x(), pw.y(), pw.z());
+          const Eigen::Vector3f po = best->primitive->instance_id == 0
+                                         ? Eigen::Vector3f(best->R_world_primitive * p + best->t_world_primitive)
+                                         : p;
+          out.points_object.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(po.x(), po.y(), po.z());
+        }
+      }
+    }
+  });
+
+  // Sensor noise on depth (see noise.h for the model and its order of effects).
+  const KinectNoiseParams& noise = req.noise;
+  if (depth_noise_off(noise)) {
+    out.depth_m = out.depth_true_m.clone();
+    return out;
+  }
+  out.depth_m.create(H, W, CV_32FC1);
+  const LateralTable lateral(noise.lateral_sigma_px);
+  const uint64_t lateral_key = frame_key(req.seed, req.frame_index, kLateralStream);
+  const uint64_t axial_key = frame_key(req.seed, req.frame_index, kAxialStream);
+  const float cos_max = noise.max_incidence_deg >= 90
+                            ? -1.0f
+                            : static_cast<float>(std::cos(noise.max_incidence_deg * std::numbers::pi / 180));
+  const int edge_r = static_cast<int>(std::floor(noise.edge_radius_px));
+  const bool edges = noise.edge_drop_probability > 0 && edge_r > 0;
+  const float edge_ratio = static_cast<float>(noise.edge_jump_ratio);
+  const float drop_p = static_cast<float>(noise.edge_drop_probability);
+  const float min_z = static_cast<float>(noise.min_depth_m);
+  const float max_z = noise.max_depth_m > 0 ? static_cast<float>(noise.max_depth_m) : std::numeric_limits<float>::infinity();
+  const bool lateral_on = noise.lateral_sigma_px > 0;
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
+    for (int v = rows.begin(); v < rows.end(); ++v) {
+      float* noisy = out.depth_m.ptr<float>(v);
+      for (int u = 0; u < W; ++u) {
+        const uint64_t index = static_cast<uint64_t>(v) * W + u;
+        const uint64_t lbits = pixel_bits(lateral_key, index);
+        int su = u, sv = v;
+        if (lateral_on) {
+          // Bits 0-15 and 16-31 pick the shifts, 32-63 the edge drop: no bit is used twice.
+          su = std::clamp(u + lateral.shift(unit_float(static_cast<uint32_t>(lbits & 0xFFFFu) << 16)), 0, W - 1);
+          sv = std::clamp(v + lateral.shift(unit_float(static_cast<uint32_t>((lbits >> 16) & 0xFFFFu) << 16)), 0, H - 1);
+        }
+        float z = out.depth_true_m.ptr<float>(sv)[su];
+        const float cos_ray = cos_incidence.ptr<float>(sv)[su];
+        if (z <= 0 || cos_ray < cos_max) {
+          noisy[u] = 0;
+          continue;
+        }
+        if (edges && unit_float(static_cast<uint32_t>(lbits >> 32)) < drop_p) {
+          bool jump = false;
+          for (int dv = -edge_r; dv <= edge_r && !jump; ++dv) {
+            const int nv = sv + dv;
+            if (nv < 0 || nv >= H) continue;
+            const float* row = out.depth_true_m.ptr<float>(nv);
+            for (int du = -edge_r; du <= edge_r; ++du) {
+              const int nu = su + du;
+              if (nu < 0 || nu >= W) continue;
+              if (std::abs(row[nu] - z) > edge_ratio * z) {
+                jump = true;
+                break;
+              }
+            }
+          }
+          if (jump) {
+            noisy[u] = 0;
+            continue;
+          }
+        }
+        if (noise.axial) {
+          // Capped below 90 degrees, where the model's sigma diverges (only reachable with the
+          // incidence cut-off disabled).
+          const float theta = std::min(fast_acos01(std::min(1.0f, cos_ray)), 1.55f);
+          z += noise.axial_sigma_m(z, theta) * normal_table_[pixel_bits(axial_key, index) >> (64 - kNormalBits)];
+        }
+        z = noise.quantize(z, fx);
+        noisy[u] = (z >= min_z && z <= max_z && z > 0) ? z : 0.0f;
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace cofusion::synthetic
