@@ -1,7 +1,7 @@
 #version 460
 // Projective data association for fusion: each live pixel looks at its block of the supersampled
-// index map and picks the surfel that agrees in depth and normal with the highest confidence
-// (ties: nearest to the pixel's ray). Several pixels may pick one surfel; the lowest pixel index
+// index map and picks, among the surfels that agree in depth and normal, the one nearest to the
+// pixel's ray (ties: the most confident), so that neighbouring pixels keep to their own surfels. Several pixels may pick one surfel; the lowest pixel index
 // claims it (atomicMin), so the update is race-free and deterministic.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -42,7 +42,7 @@ void main() {
       if (abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005) continue;
       if (dot(nc, n.xyz) < p.min_normal_dot) continue;
       float ray_dist = length(cross(pc, ray));
-      if (s.confidence > best_confidence || (s.confidence == best_confidence && ray_dist < best_ray_dist)) {
+      if (ray_dist < best_ray_dist || (ray_dist == best_ray_dist && s.confidence > best_confidence)) {
         best = si;
         best_confidence = s.confidence;
         best_ray_dist = ray_dist;

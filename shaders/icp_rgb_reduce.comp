@@ -22,17 +22,30 @@ layout(std430, binding = ICP_RGB_BINDING_REF_GRADIENT) readonly buffer RefGradie
 layout(std430, binding = ICP_RGB_BINDING_PARTIALS) writeonly buffer Partials { float partials[]; };
 layout(push_constant) uniform Push { IcpRgbReduceParams p; };
 
-shared float subgroup_sums[ICP_RGB_MAX_SUBGROUPS * ICP_RGB_PARTIAL_VALUES];
+// 16 vec4 per subgroup: 8 for the ICP term (its 29 values, then the valid live count), 8 for the
+// photometric term. 64 subgroups * 256 bytes = 16 KiB, Vulkan's guaranteed minimum.
+shared vec4 subgroup_sums[ICP_RGB_MAX_SUBGROUPS * 16];
 
-// Adds J^T J (upper triangle), J^T r, r^2 and 1 to the 29 sums of one term. Constant loop bounds:
-// the compiler unrolls them and the sums stay in registers.
-void accumulate(inout float s[ICP_RGB_TERM_VALUES], float J[6], float r) {
-  int k = 0;
-  for (int i = 0; i < 6; ++i)
-    for (int j = i; j < 6; ++j) s[k++] += J[i] * J[j];
-  for (int i = 0; i < 6; ++i) s[21 + i] += J[i] * r;
-  s[27] += r * r;
-  s[28] += 1.0;
+// One term's 29 sums packed in 8 vec4, in the order of shared/host_device.h. Named variables and
+// no arrays: indexed arrays of accumulators end up in scratch memory on lavapipe (6x slower).
+struct Term {
+  vec4 s0, s1, s2, s3, s4, s5, s6, s7;
+};
+
+void accumulate(inout Term t, vec3 a, vec3 b, float r) {  // J = (a, b)
+  t.s0 += a.x * vec4(a.x, a.y, a.z, b.x);                 // (0,0) (0,1) (0,2) (0,3)
+  t.s1 += vec4(a.x * b.y, a.x * b.z, a.y * a.y, a.y * a.z);  // (0,4) (0,5) (1,1) (1,2)
+  t.s2 += vec4(a.y * b.x, a.y * b.y, a.y * b.z, a.z * a.z);  // (1,3) (1,4) (1,5) (2,2)
+  t.s3 += vec4(a.z * b.x, a.z * b.y, a.z * b.z, b.x * b.x);  // (2,3) (2,4) (2,5) (3,3)
+  t.s4 += vec4(b.x * b.y, b.x * b.z, b.y * b.y, b.y * b.z);  // (3,4) (3,5) (4,4) (4,5)
+  t.s5 += vec4(b.z * b.z, r * a.x, r * a.y, r * a.z);        // (5,5) J^T r
+  t.s6 += vec4(r * b.x, r * b.y, r * b.z, r * r);            // J^T r, r^2
+  t.s7.x += 1.0;                                             // count
+}
+
+Term zero_term() {
+  const vec4 z = vec4(0.0);
+  return Term(z, z, z, z, z, z, z, z);
 }
 
 void main() {
@@ -44,12 +57,7 @@ void main() {
   const uint n = p.width * p.height;
   const float max_d2 = p.max_distance_m * p.max_distance_m;
 
-  float icp[ICP_RGB_TERM_VALUES], rgb[ICP_RGB_TERM_VALUES];
-  for (int k = 0; k < ICP_RGB_TERM_VALUES; ++k) {
-    icp[k] = 0.0;
-    rgb[k] = 0.0;
-  }
-  float valid_live = 0.0;
+  Term icp = zero_term(), rgb = zero_term();
 
   const uint stride = gl_NumWorkGroups.x * ICP_RGB_GROUP_SIZE;
   for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) {
@@ -57,7 +65,7 @@ void main() {
     if (v_live.w <= 0.0) continue;
     const vec4 n_live = live_normal[i];
     const bool normal_valid = n_live.w > 0.0;
-    if (normal_valid) valid_live += 1.0;
+    if (normal_valid) icp.s7.y += 1.0;  // ICP_RGB_OFFSET_VALID
     const vec3 q = R * v_live.xyz + t;  // live point in the reference frame
     if (q.z <= 0.0) continue;
     const float x = p.fx * q.x / q.z + p.cx, y = p.fy * q.y / q.z + p.cy;
@@ -73,9 +81,7 @@ void main() {
       const vec4 n_ref = ref_normal[j];
       const vec3 d = q - v_ref.xyz;
       if (n_ref.w > 0.0 && dot(d, d) <= max_d2 && dot(R * n_live.xyz, n_ref.xyz) >= p.min_normal_cos) {
-        const vec3 c = cross(q, n_ref.xyz);
-        float J[6] = float[6](n_ref.x, n_ref.y, n_ref.z, c.x, c.y, c.z);
-        accumulate(icp, J, dot(n_ref.xyz, d));
+        accumulate(icp, n_ref.xyz, cross(q, n_ref.xyz), dot(n_ref.xyz, d));
       }
     }
 
@@ -98,33 +104,32 @@ void main() {
           const float inv_z = 1.0 / q.z;
           const vec3 dI_dq = vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z,
                                   -(g.x * p.fx * q.x + g.y * p.fy * q.y) * inv_z * inv_z);
-          const vec3 c = cross(q, dI_dq);
-          float J[6] = float[6](dI_dq.x, dI_dq.y, dI_dq.z, c.x, c.y, c.z);
-          accumulate(rgb, J, r);
+          accumulate(rgb, dI_dq, cross(q, dI_dq), r);
         }
       }
     }
   }
 
   // Subgroup sums, one slot per subgroup in shared memory, then one barrier.
-  const bool leader = gl_SubgroupInvocationID == 0u;
-  const uint base = gl_SubgroupID * ICP_RGB_PARTIAL_VALUES;
-  for (int k = 0; k < ICP_RGB_TERM_VALUES; ++k) {
-    const float a = subgroupAdd(icp[k]);
-    const float b = subgroupAdd(rgb[k]);
-    if (leader) {
-      subgroup_sums[base + k] = a;
-      subgroup_sums[base + ICP_RGB_TERM_VALUES + k] = b;
-    }
+  if (gl_SubgroupID < ICP_RGB_MAX_SUBGROUPS) {  // guaranteed by the host; keeps the indexing safe
+    const vec4 sums[16] = vec4[16](subgroupAdd(icp.s0), subgroupAdd(icp.s1), subgroupAdd(icp.s2), subgroupAdd(icp.s3),
+                                   subgroupAdd(icp.s4), subgroupAdd(icp.s5), subgroupAdd(icp.s6), subgroupAdd(icp.s7),
+                                   subgroupAdd(rgb.s0), subgroupAdd(rgb.s1), subgroupAdd(rgb.s2), subgroupAdd(rgb.s3),
+                                   subgroupAdd(rgb.s4), subgroupAdd(rgb.s5), subgroupAdd(rgb.s6), subgroupAdd(rgb.s7));
+    if (gl_SubgroupInvocationID == 0u)
+      for (uint k = 0u; k < 16u; ++k) subgroup_sums[gl_SubgroupID * 16u + k] = sums[k];
   }
-  const float v = subgroupAdd(valid_live);
-  if (leader) subgroup_sums[base + 2 * ICP_RGB_TERM_VALUES] = v;
   memoryBarrierShared();
   barrier();
   const uint k = gl_LocalInvocationIndex;
-  if (k < ICP_RGB_PARTIAL_VALUES) {
-    float s = 0.0;
-    for (uint g = 0u; g < gl_NumSubgroups; ++g) s += subgroup_sums[g * ICP_RGB_PARTIAL_VALUES + k];
-    partials[gl_WorkGroupID.x * ICP_RGB_PARTIAL_STRIDE + k] = s;
+  if (k < 16u) {
+    vec4 s = vec4(0.0);
+    const uint groups = min(gl_NumSubgroups, uint(ICP_RGB_MAX_SUBGROUPS));
+    for (uint g = 0u; g < groups; ++g) s += subgroup_sums[g * 16u + k];
+    const uint o = gl_WorkGroupID.x * ICP_RGB_PARTIAL_STRIDE + 4u * k;
+    partials[o] = s.x;
+    partials[o + 1u] = s.y;
+    partials[o + 2u] = s.z;
+    partials[o + 3u] = s.w;
   }
 }

@@ -21,6 +21,7 @@ static_assert(sizeof(CleanupParams) == 96 && offsetof(CleanupParams, free_space_
 static_assert(sizeof(Surfel) == 48 && offsetof(Surfel, nx) == 16 && offsetof(Surfel, colour_rgba8) == 32);
 static_assert(sizeof(IcpRgbReduceParams) == 88 && offsetof(IcpRgbReduceParams, fx) == 48 &&
               offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, use_photometric) == 84);
-static_assert(ICP_RGB_PARTIAL_VALUES == 2 * ICP_RGB_TERM_VALUES + 1 && ICP_RGB_PARTIAL_VALUES <= ICP_RGB_PARTIAL_STRIDE);
+static_assert(ICP_RGB_OFFSET_VALID >= ICP_RGB_OFFSET_ICP + ICP_RGB_TERM_VALUES && ICP_RGB_OFFSET_RGB > ICP_RGB_OFFSET_VALID &&
+              ICP_RGB_OFFSET_RGB + ICP_RGB_TERM_VALUES <= ICP_RGB_PARTIAL_STRIDE && ICP_RGB_PARTIAL_STRIDE == 64);
 static_assert(ICP_RGB_GROUP_SIZE / ICP_RGB_MAX_SUBGROUPS == 4);
 }  // namespace cofusion::gpu_layout

@@ -95,10 +95,11 @@ void vertex_normal_map(const Image<float>& depth, const Intrinsics& k, Image<glm
       if (d <= 0.0f) continue;
       const glm::vec3 v = back_project(x, y, d);
       vertex.at(x, y) = glm::vec4(v, 1.0f);
-      if (x + 1 >= depth.width || y + 1 >= depth.height) continue;
-      const float dr = depth.at(x + 1, y), dd = depth.at(x, y + 1);
-      if (dr <= 0.0f || dd <= 0.0f) continue;
-      glm::vec3 c = glm::cross(back_project(x + 1, y, dr) - v, back_project(x, y + 1, dd) - v);
+      if (x < 1 || y < 1 || x + 1 >= depth.width || y + 1 >= depth.height) continue;
+      const float dl = depth.at(x - 1, y), dr = depth.at(x + 1, y), du = depth.at(x, y - 1), dd = depth.at(x, y + 1);
+      if (dl <= 0.0f || dr <= 0.0f || du <= 0.0f || dd <= 0.0f) continue;
+      glm::vec3 c = glm::cross(back_project(x + 1, y, dr) - back_project(x - 1, y, dl),
+                               back_project(x, y + 1, dd) - back_project(x, y - 1, du));
       const float len = glm::length(c);
       if (len <= 0.0f) continue;
       c /= len;

@@ -196,7 +196,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   sp.frame = frame;
   sp.recent_window_frames = 0;
   sp.grid_scale = uint32_t(S);
-  sp.footprint_px = 0;
+  sp.footprint_px = uint32_t(params.index_map_footprint);
 
   L::FuseParams fp{};
   std::copy(T, T + 12, fp.T_camera_model);

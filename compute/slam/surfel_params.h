@@ -14,12 +14,17 @@ struct PredictionParams {
 };
 
 struct FusionParams {
-  // Resolution multiplier of the index map used for data association (ElasticFusion: 4).
-  int index_map_scale = 4;
+  // Resolution multiplier of the index map used for data association (ElasticFusion: 4) ...
+  int index_map_scale = 2;
+  // ... and the half-size (in its cells) of the square each surfel covers there when its disc is
+  // larger than a cell. With one cell per surfel, about a third of the pixels find no candidate
+  // although a surfel covers them, and spawn duplicates that the window then has to remove.
+  int index_map_footprint = 1;
   // A live pixel matches a surfel within max_depth_diff_rel * depth + 5 mm ...
   float max_depth_diff_rel = 0.03f;
-  // ... whose normal is within this angle of the live normal.
-  float max_normal_angle_deg = 20.0f;
+  // ... whose normal is within this angle of the live normal. Generous: normals of real sensor
+  // depth at 2-4 m are noisy, and a tight test turns noise into duplicate surfels.
+  float max_normal_angle_deg = 70.0f;
   // Position/normal/radius are averaged only when the live disc is at most this much larger.
   float max_radius_growth = 1.5f;
   // Surfels at or above this confidence are stable (ElasticFusion: 10 with weights <= 1).

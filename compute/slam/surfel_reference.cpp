@@ -131,7 +131,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
           if (std::abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005f) continue;
           if (glm::dot(nc, vec3(n)) < p.min_normal_dot) continue;
           const float ray_dist = glm::length(glm::cross(pc, ray));
-          if (s.confidence > best_confidence || (s.confidence == best_confidence && ray_dist < best_ray_dist)) {
+          if (ray_dist < best_ray_dist || (ray_dist == best_ray_dist && s.confidence > best_confidence)) {
             best = si;
             best_confidence = s.confidence;
             best_ray_dist = ray_dist;

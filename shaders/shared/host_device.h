@@ -182,9 +182,10 @@ struct TestFillParams {
 };
 
 // ---- icp_rgb_reduce.comp: one Gauss-Newton iteration of frame-to-model tracking -------------
-// Each workgroup loops over the live pixels (grid-stride) and writes its partial sums:
-//   [0, 29)  ICP term (point-to-plane, metres), [29, 58) photometric term (intensity / 255),
-//   [58]     live pixels with a valid vertex and normal.
+// Each workgroup loops over the live pixels (grid-stride) and writes ICP_RGB_PARTIAL_STRIDE
+// floats of partial sums: the ICP term (point-to-plane, metres) at ICP_RGB_OFFSET_ICP, the count
+// of live pixels with a valid vertex and normal at ICP_RGB_OFFSET_VALID, the photometric term
+// (intensity / 255) at ICP_RGB_OFFSET_RGB; the other floats are 0.
 // Each 29-value term: the 21 entries of the upper triangle of J^T J (row-major: (0,0), (0,1) ..
 // (0,5), (1,1) .. (5,5)), the 6 entries of J^T r, sum r^2 and the number of residuals. J is the
 // derivative with respect to a left-composed twist (v, w) (see compute/common/se3.h).
@@ -198,8 +199,10 @@ struct TestFillParams {
 #define ICP_RGB_BINDING_PARTIALS 7        // float[workgroups * ICP_RGB_PARTIAL_STRIDE]
 #define ICP_RGB_GROUP_SIZE 256            // invocations per workgroup
 #define ICP_RGB_TERM_VALUES 29            // values per term (see above)
-#define ICP_RGB_PARTIAL_VALUES 59         // 2 terms + the valid live pixel count
-#define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup in PARTIALS
+#define ICP_RGB_OFFSET_ICP 0
+#define ICP_RGB_OFFSET_VALID 29
+#define ICP_RGB_OFFSET_RGB 32
+#define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup (16 vec4)
 #define ICP_RGB_MAX_SUBGROUPS 64          // shared memory holds this many subgroups: subgroup size >= 4
 struct IcpRgbReduceParams {
   float T_reference_live[12];  // row-major 3x4 [R | t]: reference-frame point = T * live-frame point

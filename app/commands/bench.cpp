@@ -1,0 +1,111 @@
+// `cofusion bench`: per-stage wall-clock timings on the chosen Vulkan device.
+#include <cstdio>
+
+#include "commands/commands.h"
+#include "commands/frame_upload.h"
+#include "commands/gpu_options.h"
+#include "commands/stage_timer.h"
+#include "kernels/preprocess.h"
+
+namespace cofusion::commands {
+namespace {
+
+struct BenchOptions {
+  GpuCliOptions gpu;
+  int iterations = 30;
+  int warmup = 3;
+};
+
+// Times `record` submitted alone, `iterations` times, after `warmup` untimed runs (the first
+// dispatch of a pipeline compiles it on Mesa).
+template <typename Record>
+void time_stage(gpu::Stream& stream, StageTimes& times, const std::string& stage, const BenchOptions& o,
+                Record&& record) {
+  for (int i = 0; i < o.warmup + o.iterations; ++i) {
+    auto start = std::chrono::steady_clock::now();
+    stream.run(record);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (i >= o.warmup) times.add(stage, ms);
+  }
+}
+
+void bench_preprocessing(gpu::Context& ctx, const Intrinsics& k, const BenchOptions& o, StageTimes& times) {
+  gpu::Stream stream(ctx, 0, "bench");
+  kernels::Preprocessor pre(ctx);
+  kernels::PreprocessParams params;
+  auto frame = kernels::FramePyramid::allocate(ctx, k, params.pyramid_levels, "bench frame");
+  const Frame input = make_builtin_test_frame(k);
+  const std::string size = std::to_string(k.width) + "x" + std::to_string(k.height);
+  {
+    for (int i = 0; i < o.warmup + o.iterations; ++i) {
+      auto start = std::chrono::steady_clock::now();
+      upload_frame(stream, input, frame);
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      if (i >= o.warmup) times.add("upload " + size, ms);
+    }
+  }
+  const auto& l0 = frame.levels[0];
+  const int w = l0.width, h = l0.height;
+  time_stage(stream, times, "depth_to_metres " + size, o, [&](gpu::CommandList& c) {
+    pre.depth_to_metres(c, frame.raw_depth, frame.depth_raw_m, w, h, kUploadMetresPerUnit, params.min_depth_m,
+                        params.max_depth_m);
+  });
+  time_stage(stream, times, "bilateral_depth " + size, o, [&](gpu::CommandList& c) {
+    pre.bilateral_depth(c, frame.depth_raw_m, l0.depth_m, w, h, params.bilateral_radius_px,
+                        params.bilateral_sigma_space_px, params.bilateral_sigma_depth_m);
+  });
+  time_stage(stream, times, "rgb_to_intensity " + size, o,
+             [&](gpu::CommandList& c) { pre.rgb_to_intensity(c, frame.rgb, l0.intensity, w, h); });
+  time_stage(stream, times, "depth_pyramid (3 levels)", o, [&](gpu::CommandList& c) {
+    for (size_t l = 1; l < frame.levels.size(); ++l) {
+      pre.downsample_depth(c, frame.levels[l - 1].depth_m, frame.levels[l].depth_m, frame.levels[l - 1].width,
+                           frame.levels[l - 1].height, params.pyramid_max_depth_diff_m);
+      c.barrier();
+    }
+  });
+  time_stage(stream, times, "intensity_pyramid (3 levels)", o, [&](gpu::CommandList& c) {
+    for (size_t l = 1; l < frame.levels.size(); ++l) {
+      pre.downsample_intensity(c, frame.levels[l - 1].intensity, frame.levels[l].intensity, frame.levels[l - 1].width,
+                               frame.levels[l - 1].height);
+      c.barrier();
+    }
+  });
+  time_stage(stream, times, "vertex_normal_map " + size, o, [&](gpu::CommandList& c) {
+    pre.vertex_normal_map(c, l0.depth_m, l0.vertex, l0.normal, l0.intrinsics);
+  });
+  time_stage(stream, times, "vertex_normal_map (all levels)", o, [&](gpu::CommandList& c) {
+    for (auto& level : frame.levels) pre.vertex_normal_map(c, level.depth_m, level.vertex, level.normal, level.intrinsics);
+  });
+  time_stage(stream, times, "intensity_gradient " + size, o,
+             [&](gpu::CommandList& c) { pre.intensity_gradient(c, l0.intensity, l0.gradient, w, h); });
+  time_stage(stream, times, "preprocess whole frame " + size, o,
+             [&](gpu::CommandList& c) { pre.record_frame(c, frame, kUploadMetresPerUnit, params); });
+}
+
+}  // namespace
+
+void add_bench(CLI::App& app) {
+  auto options = std::make_shared<BenchOptions>();
+  auto* cmd = app.add_subcommand("bench", "Time each pipeline stage and print median milliseconds per stage");
+  options->gpu.add_to(*cmd);
+  cmd->add_option("--iterations", options->iterations, "Timed repetitions per stage")->check(CLI::PositiveNumber);
+  cmd->add_option("--warmup", options->warmup, "Untimed repetitions first (pipeline compilation)")->check(CLI::NonNegativeNumber);
+  cmd->callback([options] {
+    if (handle_list_devices(options->gpu)) return;
+    gpu::Context ctx(options->gpu.context_options());
+    std::printf("device: %s\n", ctx.description().c_str());
+    StageTimes times;
+    bench_preprocessing(ctx, Intrinsics{}, *options, times);
+    std::printf("%-34s %10s %10s %10s\n", "stage", "median ms", "min ms", "max ms");
+    for (const auto& stage : times.stages()) {
+      const auto& s = times.samples(stage);
+      std::printf("%-34s %10.3f %10.3f %10.3f\n", stage.c_str(), times.median(stage), *std::min_element(s.begin(), s.end()),
+                  *std::max_element(s.begin(), s.end()));
+    }
+    const double frame_ms = times.median("upload 640x480") + times.median("preprocess whole frame 640x480");
+    std::printf("preprocessing throughput: %.1f frames per second (upload + whole-frame preprocessing)\n", 1000.0 / frame_ms);
+    if (ctx.validation_error_count() > 0) throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors");
+  });
+}
+
+}  // namespace cofusion::commands

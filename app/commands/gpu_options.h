@@ -1,0 +1,31 @@
+#pragma once
+// Command-line options shared by the subcommands that use the Vulkan device.
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "gpu/context.h"
+
+namespace cofusion::commands {
+
+struct GpuCliOptions {
+  std::string device;       // --device: index or name substring
+  bool validation = false;  // --validation
+  bool list_devices = false;
+
+  void add_to(CLI::App& cmd) {
+    cmd.add_option("--device", device, "Vulkan device by index or name substring (default: best; a real GPU is preferred)");
+    cmd.add_flag("--validation", validation, "Enable Vulkan validation layers (errors are reported and fail the run)");
+    cmd.add_flag("--list-devices", list_devices, "List Vulkan devices and exit");
+  }
+  gpu::ContextOptions context_options() const {
+    gpu::ContextOptions o;
+    o.device = device;
+    o.validation = validation;
+    return o;
+  }
+};
+
+// Prints the device list; returns true when --list-devices was given (the caller then exits).
+bool handle_list_devices(const GpuCliOptions& options);
+
+}  // namespace cofusion::commands

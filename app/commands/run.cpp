@@ -1,0 +1,162 @@
+// `cofusion run`: the main job. Reads frames from a source, processes them on the Vulkan device
+// and writes the results under --output.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <unistd.h>
+
+#include "commands/commands.h"
+#include "commands/config.h"
+#include "commands/gpu_options.h"
+#include "commands/sources.h"
+#include "commands/stage_timer.h"
+#include "io/atomic_file.h"
+#include "export/model_export.h"
+#include "io/trajectory.h"
+#include "slam/dense_slam.h"
+
+namespace cofusion::commands {
+namespace {
+namespace fs = std::filesystem;
+
+struct RunOptions {
+  std::string input = "synthetic";
+  std::string output = "./cofusion-out";
+  bool headless = false;
+  std::optional<int> max_frames;
+  std::string config_file;
+  bool save_segmentation = false;
+  std::string intrinsics;
+  unsigned seed = 0;
+  GpuCliOptions gpu;
+};
+
+// A frame with no usable depth cannot be tracked or fused: reject it with its index and time.
+void check_frame(const Frame& frame, const Intrinsics& intrinsics) {
+  if (frame.depth_m.cols != intrinsics.width || frame.depth_m.rows != intrinsics.height)
+    throw Error("frame " + std::to_string(frame.index) + ": depth is " + std::to_string(frame.depth_m.cols) + "x" +
+                std::to_string(frame.depth_m.rows) + " but the intrinsics say " + std::to_string(intrinsics.width) + "x" +
+                std::to_string(intrinsics.height));
+  const int valid = cv::countNonZero(frame.depth_m > 0.0f);  // NaN compares false
+  if (valid == 0)
+    throw Error("frame " + std::to_string(frame.index) + " (t=" + std::to_string(frame.timestamp_s) +
+                "): no valid depth reading (all zero or NaN)");
+}
+
+void run(const RunOptions& o) {
+  if (handle_list_devices(o.gpu)) return;
+  const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
+  SourceOptions source_options;
+  source_options.intrinsics = o.intrinsics;
+  source_options.max_frames = o.max_frames;
+  source_options.seed = o.seed;
+  auto source = open_source(o.input, source_options);
+  const Intrinsics intrinsics = source->intrinsics();
+  if (!intrinsics.plausible()) throw Error("input " + o.input + ": implausible intrinsics " + intrinsics.to_string());
+  const fs::path out_dir = o.output;
+  ensure_writable_directory(out_dir);
+  ensure_writable_directory(out_dir / "trajectories");
+  if (o.save_segmentation) ensure_writable_directory(out_dir / "segmentation");
+
+  gpu::Context ctx(o.gpu.context_options());
+  std::printf("device: %s\ninput: %s\n", ctx.description().c_str(), source->describe().c_str());
+  if (!o.headless) std::printf("note: the viewer is not part of this build yet; running headless\n");
+
+  slam::DenseSlam slam(ctx, intrinsics, config.slam);
+  StageTimes times;
+  Trajectory camera;
+  std::vector<int> failed_frames;
+  const auto start = std::chrono::steady_clock::now();
+  int frames = 0;
+  const bool tty = ::isatty(STDOUT_FILENO);
+  while (true) {
+    std::optional<Frame> frame;
+    {
+      ScopedStage s(times, "read");
+      frame = source->next();
+    }
+    if (!frame) break;
+    check_frame(*frame, intrinsics);
+    const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
+    const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
+    const slam::FrameResult r = slam.process(depth.ptr<float>(), rgb.data);
+    for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
+    camera.push_back({frame->timestamp_s, r.T_world_camera});
+    if (r.tracking.failed) {
+      failed_frames.push_back(frame->index);
+      std::printf("%sframe %d: tracking failed (%s); pose not updated, frame not fused\n", tty ? "\n" : "",
+                  frame->index, r.tracking.failure_reason.c_str());
+    }
+    if (o.save_segmentation) {
+      // One model: every pixel with depth belongs to the background model (label 0); 65535 = none.
+      cv::Mat labels(depth.rows, depth.cols, CV_16UC1, cv::Scalar(65535));
+      labels.setTo(0, depth > 0.0f);
+      char name[32];
+      std::snprintf(name, sizeof name, "%06d.png", frame->index);
+      write_atomically(out_dir / "segmentation" / name, [&](const fs::path& tmp) {
+        if (!cv::imwrite(tmp.string() + ".png", labels)) throw Error("PNG encoding failed");
+        fs::rename(tmp.string() + ".png", tmp);
+      });
+    }
+    ++frames;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::printf("%sframe %d  %.1f fps  surfels %u (+%u -%u)  inliers %.0f%%%s", tty ? "\r" : "", frames,
+                frames / elapsed, slam.model().count(), r.fusion.surfels_after_fusion - r.fusion.surfels_before,
+                r.fusion.surfels_after_fusion - r.fusion.surfels_after_cleanup, 100.0 * r.tracking.inlier_ratio,
+                tty ? "   " : "\n");
+    std::fflush(stdout);
+  }
+  if (tty) std::printf("\n");
+  if (frames == 0) throw Error("input " + o.input + " has no frames");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (ctx.validation_error_count() > 0)
+    throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors (see above)");
+
+  write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera);
+  SurfelCloud background;
+  background.model_id = 0;
+  background.class_name = "background";
+  background.T_world_model = slam.model().T_world_model;
+  background.surfels = slam.model().download(slam.stream());
+  write_models({background}, camera, out_dir);
+
+  nlohmann::ordered_json summary;
+  summary["frames"] = frames;
+  summary["fps"] = frames / seconds;
+  summary["device"] = ctx.description();
+  summary["input"] = source->describe();
+  for (const auto& stage : times.stages()) summary["stages_ms"][stage] = times.mean(stage);
+  summary["tracking_failures"] = failed_frames;
+  summary["models"] = nlohmann::json::array(
+      {{{"id", 0},
+        {"state", "active"},
+        {"surfels", background.surfels.size()},
+        {"first_frame", 0},
+        {"last_frame", frames - 1},
+        {"class", "background"}}});
+  write_text_atomically(out_dir / "summary.json", summary.dump(2) + "\n");
+  std::printf("%d frames in %.2f s (%.1f fps), %zu surfels, %zu tracking failures; wrote %s\n", frames, seconds,
+              frames / seconds, background.surfels.size(), failed_frames.size(), out_dir.c_str());
+}
+
+}  // namespace
+
+void add_run(CLI::App& app) {
+  auto o = std::make_shared<RunOptions>();
+  auto* cmd = app.add_subcommand("run", "Run the pipeline on an input (default: the built-in synthetic scene)");
+  cmd->add_option("--input", o->input,
+                  "SOURCE: synthetic[:SCENE] (default), tum:PATH, klg:PATH, oni:PATH, openni2[:URI], images:PATH");
+  cmd->add_option("--output", o->output, "Output folder (default ./cofusion-out)");
+  cmd->add_flag("--headless", o->headless, "Run without a window");
+  cmd->add_option("--max-frames", o->max_frames, "Stop after N frames")->check(CLI::PositiveNumber);
+  cmd->add_option("--config", o->config_file, "JSON file of pipeline parameters")->check(CLI::ExistingFile);
+  cmd->add_flag("--save-segmentation", o->save_segmentation, "Write per-frame label images to segmentation/");
+  cmd->add_option("--intrinsics", o->intrinsics, "fx,fy,cx,cy | calibration file | preset (fr1, fr2, fr3, primesense)");
+  cmd->add_option("--seed", o->seed, "Synthetic scenes: noise seed (0 = the scene's own)");
+  o->gpu.add_to(*cmd);
+  cmd->callback([o] { run(*o); });
+}
+
+}  // namespace cofusion::commands

@@ -1,0 +1,145 @@
+#include "slam/tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "common/error.h"
+#include "embedded_shaders.h"
+#include "shared/host_device.h"
+
+namespace cofusion::slam {
+namespace L = gpu_layout;
+
+namespace {
+TrackerParams validated(TrackerParams params) {
+  validate(params, "Tracker");
+  return params;
+}
+
+bool same_intrinsics(const Intrinsics& a, const Intrinsics& b) {
+  auto close = [](double x, double y) { return std::abs(x - y) <= 1e-9 * std::max(1.0, std::abs(x)); };
+  return a.width == b.width && a.height == b.height && close(a.fx, b.fx) && close(a.fy, b.fy) && close(a.cx, b.cx) &&
+         close(a.cy, b.cy);
+}
+
+void require_buffer(const gpu::BufferPtr& buffer, size_t bytes, const std::string& what) {
+  if (!buffer) throw Error(what + " is missing");
+  if (buffer->size() < bytes)
+    throw Error(what + " ('" + buffer->name() + "') holds " + std::to_string(buffer->size()) + " bytes, needs " +
+                std::to_string(bytes));
+}
+}  // namespace
+
+void check_levels(const std::vector<kernels::FramePyramid::Level>& live,
+                  const std::vector<kernels::FramePyramid::Level>& reference, const std::string& what) {
+  if (live.empty()) throw Error(what + ": the live frame has no pyramid levels");
+  if (live.size() != reference.size())
+    throw Error(what + ": live frame has " + std::to_string(live.size()) + " levels, reference " +
+                std::to_string(reference.size()));
+  for (size_t l = 0; l < live.size(); ++l) {
+    const auto& a = live[l];
+    const auto& b = reference[l];
+    const std::string lv = what + ": level " + std::to_string(l);
+    if (a.width < 1 || a.height < 1) throw Error(lv + ": empty image");
+    if (a.width != b.width || a.height != b.height)
+      throw Error(lv + ": live is " + std::to_string(a.width) + "x" + std::to_string(a.height) + ", reference " +
+                  std::to_string(b.width) + "x" + std::to_string(b.height));
+    if (a.intrinsics.width != a.width || a.intrinsics.height != a.height || !a.intrinsics.plausible())
+      throw Error(lv + ": live intrinsics " + a.intrinsics.to_string() + " do not fit the image");
+    if (!same_intrinsics(a.intrinsics, b.intrinsics))
+      throw Error(lv + ": live intrinsics " + a.intrinsics.to_string() + " differ from reference " +
+                  b.intrinsics.to_string());
+    const size_t n = static_cast<size_t>(a.width) * static_cast<size_t>(a.height);
+    require_buffer(a.vertex, n * 16, lv + " live vertex map");
+    require_buffer(a.normal, n * 16, lv + " live normal map");
+    require_buffer(a.intensity, n * 4, lv + " live intensity");
+    require_buffer(b.vertex, n * 16, lv + " reference vertex map");
+    require_buffer(b.normal, n * 16, lv + " reference normal map");
+    require_buffer(b.intensity, n * 4, lv + " reference intensity");
+    require_buffer(b.gradient, n * 8, lv + " reference gradient");
+  }
+}
+
+Tracker::Tracker(gpu::Context& ctx, TrackerParams params)
+    : ctx_(ctx),
+      params_(validated(std::move(params))),
+      reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 8, sizeof(L::IcpRgbReduceParams)) {
+  const auto& f = ctx.features();
+  if (!f.subgroup_arithmetic)
+    throw Error("Tracker: device '" + ctx.info().name + "' lacks subgroup arithmetic in compute shaders");
+  if (f.subgroup_size * ICP_RGB_MAX_SUBGROUPS < ICP_RGB_GROUP_SIZE)
+    throw Error("Tracker: device '" + ctx.info().name + "' has subgroups of " + std::to_string(f.subgroup_size) +
+                " invocations; the reduction needs at least " +
+                std::to_string(ICP_RGB_GROUP_SIZE / ICP_RGB_MAX_SUBGROUPS));
+  set_params(params_);
+}
+
+void Tracker::set_params(const TrackerParams& params) {
+  validate(params, "Tracker");
+  const size_t bytes = static_cast<size_t>(params.reduction_workgroups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
+  if (!partials_ || partials_->size() < bytes) partials_ = gpu::Buffer::create(ctx_, bytes, "tracker partial sums");
+  params_ = params;
+}
+
+LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
+                                       const kernels::FramePyramid::Level& reference,
+                                       const Eigen::Isometry3d& T_reference_live) {
+  const Intrinsics& k = live.intrinsics;
+  L::IcpRgbReduceParams p{};
+  const Eigen::Matrix<double, 3, 4> T = T_reference_live.matrix().topRows<3>();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) p.T_reference_live[r * 4 + c] = static_cast<float>(T(r, c));
+  p.fx = static_cast<float>(k.fx);
+  p.fy = static_cast<float>(k.fy);
+  p.cx = static_cast<float>(k.cx);
+  p.cy = static_cast<float>(k.cy);
+  p.width = static_cast<uint32_t>(live.width);
+  p.height = static_cast<uint32_t>(live.height);
+  p.max_distance_m = static_cast<float>(params_.max_correspondence_distance_m);
+  p.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_deg * std::numbers::pi / 180.0));
+  p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
+  p.use_photometric = params_.use_photometric ? 1u : 0u;
+
+  // Enough workgroups to give every invocation a pixel, at most reduction_workgroups.
+  const uint32_t pixels = p.width * p.height;
+  const uint32_t groups = std::clamp<uint32_t>(gpu::group_count(pixels, ICP_RGB_GROUP_SIZE), 1u,
+                                               static_cast<uint32_t>(params_.reduction_workgroups));
+  auto cmd = stream.begin();
+  cmd.dispatch(reduce_,
+               {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
+                reference.gradient, partials_},
+               p, groups);
+  stream.submit(std::move(cmd));
+  std::vector<float> partials(static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE);
+  stream.download(partials_, partials.data(), partials.size() * sizeof(float));
+
+  LinearSystemSums sums;
+  for (uint32_t g = 0; g < groups; ++g) {
+    const float* part = partials.data() + static_cast<size_t>(g) * ICP_RGB_PARTIAL_STRIDE;
+    for (int i = 0; i < ICP_RGB_TERM_VALUES; ++i) {
+      sums.icp[i] += part[ICP_RGB_OFFSET_ICP + i];
+      sums.rgb[i] += part[ICP_RGB_OFFSET_RGB + i];
+    }
+    sums.valid_live_pixels += part[ICP_RGB_OFFSET_VALID];
+  }
+  return sums;
+}
+
+TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& live,
+                              const std::vector<kernels::FramePyramid::Level>& reference,
+                              const Eigen::Isometry3d& T_reference_live_guess) {
+  check_levels(live, reference, "Tracker::track");
+  if (live.size() > params_.iterations_per_level.size())
+    throw Error("Tracker::track: " + std::to_string(live.size()) + " pyramid levels but iterations_per_level has " +
+                std::to_string(params_.iterations_per_level.size()) + " entries");
+  if (!T_reference_live_guess.matrix().allFinite()) throw Error("Tracker::track: the pose guess is not finite");
+  std::vector<long> pixels;
+  for (const auto& level : live) pixels.push_back(static_cast<long>(level.width) * level.height);
+  return gauss_newton(
+      pixels,
+      [&](int level, const Eigen::Isometry3d& T) { return compute_sums(stream, live[level], reference[level], T); },
+      T_reference_live_guess, params_);
+}
+
+}  // namespace cofusion::slam

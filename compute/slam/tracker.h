@@ -1,0 +1,58 @@
+#pragma once
+// Frame-to-model tracking (Co-Fusion section "Tracking active models", after ElasticFusion):
+// the live frame is registered against the model's predicted view at time t-1 by minimising
+//   E = E_icp + lambda * E_rgb
+// with point-to-plane ICP (eq. 2) and photometric alignment (eq. 3), Gauss-Newton on a 4-level
+// pyramid, coarse to fine. One GPU dispatch per iteration reduces both linear systems
+// (shaders/icp_rgb_reduce.comp); the 6x6 solve runs on the host in double.
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "gpu/stream.h"
+#include "kernels/preprocess.h"
+#include "slam/tracker_solver.h"
+
+namespace cofusion::slam {
+
+// Thread safety: a Tracker may be used by one thread at a time (it owns one partial-sums buffer).
+class Tracker {
+ public:
+  // Throws cofusion::Error when the device lacks subgroup arithmetic or has subgroups smaller
+  // than 4 invocations (the shader's shared memory holds at most 64 subgroups of a workgroup).
+  Tracker(gpu::Context& ctx, TrackerParams params);
+
+  // Estimates T_reference_live, which maps live-camera points into the reference camera frame.
+  // `live`: the live frame's pyramid (vertex, normal, intensity of each level; see
+  // kernels::FramePyramid). `reference`: the model's predicted view in the reference (t-1) camera
+  // frame, with vertex, normal, intensity and gradient maps per level, same sizes and intrinsics.
+  // Levels beyond params().iterations_per_level.size() are not allowed; all levels given are used.
+  // On failure (result.failed) the returned pose is the guess. Synchronous: waits for the GPU.
+  // Throws cofusion::Error on mismatched levels, missing buffers or a non-finite guess.
+  TrackingResult track(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& live,
+                       const std::vector<kernels::FramePyramid::Level>& reference,
+                       const Eigen::Isometry3d& T_reference_live_guess);
+
+  // The sums of one Gauss-Newton iteration at one level, at pose T_reference_live (what track()
+  // computes per iteration; exposed for the GPU-vs-CPU tests).
+  LinearSystemSums compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
+                                const kernels::FramePyramid::Level& reference,
+                                const Eigen::Isometry3d& T_reference_live);
+
+  const TrackerParams& params() const { return params_; }
+  void set_params(const TrackerParams& params);
+
+ private:
+  gpu::Context& ctx_;
+  TrackerParams params_;
+  gpu::ComputePipeline reduce_;
+  gpu::BufferPtr partials_;
+};
+
+// Throws cofusion::Error unless `live` and `reference` have the same, non-zero number of levels
+// with equal sizes and the buffers every level needs. `what` names the caller in messages.
+void check_levels(const std::vector<kernels::FramePyramid::Level>& live,
+                  const std::vector<kernels::FramePyramid::Level>& reference, const std::string& what);
+
+}  // namespace cofusion::slam

@@ -1,0 +1,134 @@
+#include "slam/tracker_reference.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "common/error.h"
+
+namespace cofusion::slam::reference {
+namespace {
+using Term = std::array<double, LinearSystemSums::kTermValues>;
+
+void add(Term& s, const Vector6d& J, double r) {
+  int k = 0;
+  for (int i = 0; i < 6; ++i)
+    for (int j = i; j < 6; ++j) s[k++] += J(i) * J(j);
+  for (int i = 0; i < 6; ++i) s[21 + i] += J(i) * r;
+  s[27] += r * r;
+  s[28] += 1;
+}
+
+Eigen::Vector3d xyz(const glm::vec4& v) { return {v.x, v.y, v.z}; }
+
+template <typename T>
+kernels::Image<T> download_image(gpu::Stream& stream, const gpu::BufferPtr& buffer, int w, int h) {
+  kernels::Image<T> image(w, h);
+  stream.download(buffer, image.pixels.data(), image.bytes());
+  return image;
+}
+
+void check_same_size(const HostLevel& a, const HostLevel& b, const std::string& what) {
+  const int w = a.intrinsics.width, h = a.intrinsics.height;
+  auto ok = [&](const auto& image) { return image.width == w && image.height == h; };
+  if (!ok(a.vertex) || !ok(a.normal) || !ok(a.intensity) || !ok(b.vertex) || !ok(b.normal) || !ok(b.intensity) ||
+      !ok(b.gradient) || b.intrinsics.width != w || b.intrinsics.height != h)
+    throw Error(what + ": maps of live and reference levels differ in size from the intrinsics " +
+                a.intrinsics.to_string());
+}
+}  // namespace
+
+HostLevel download_level(gpu::Stream& stream, const kernels::FramePyramid::Level& level) {
+  HostLevel out;
+  out.intrinsics = level.intrinsics;
+  const int w = level.width, h = level.height;
+  out.vertex = download_image<glm::vec4>(stream, level.vertex, w, h);
+  out.normal = download_image<glm::vec4>(stream, level.normal, w, h);
+  out.intensity = download_image<float>(stream, level.intensity, w, h);
+  out.gradient = download_image<glm::vec2>(stream, level.gradient, w, h);
+  return out;
+}
+
+std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& levels) {
+  std::vector<HostLevel> out;
+  for (const auto& level : levels) out.push_back(download_level(stream, level));
+  return out;
+}
+
+LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
+                              const TrackerParams& params) {
+  check_same_size(live, ref, "tracker reference");
+  const Intrinsics& k = live.intrinsics;
+  const int w = k.width, h = k.height;
+  const Eigen::Matrix3d R = T.linear();
+  const double max_d = params.max_correspondence_distance_m;
+  const double min_cos = std::cos(params.max_normal_angle_deg * std::numbers::pi / 180.0);
+  LinearSystemSums sums;
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      const glm::vec4& v_live = live.vertex.at(u, v);
+      if (!(v_live.w > 0)) continue;
+      const glm::vec4& n_live = live.normal.at(u, v);
+      const bool normal_valid = n_live.w > 0;
+      if (normal_valid) sums.valid_live_pixels += 1;
+      const Eigen::Vector3d q = T * xyz(v_live);
+      if (!(q.z() > 0)) continue;
+      const double x = k.fx * q.x() / q.z() + k.cx, y = k.fy * q.y() / q.z() + k.cy;
+      if (!(x >= -0.5 && y >= -0.5 && x < w - 0.5 && y < h - 0.5)) continue;
+      const int xn = static_cast<int>(std::floor(x + 0.5)), yn = static_cast<int>(std::floor(y + 0.5));
+      const glm::vec4& v_ref = ref.vertex.at(xn, yn);
+      if (!(v_ref.w > 0)) continue;
+
+      if (normal_valid) {
+        const glm::vec4& n_ref4 = ref.normal.at(xn, yn);
+        const Eigen::Vector3d n_ref = xyz(n_ref4), d = q - xyz(v_ref);
+        if (n_ref4.w > 0 && d.norm() <= max_d && (R * xyz(n_live)).dot(n_ref) >= min_cos) {
+          Vector6d J;
+          J << n_ref, q.cross(n_ref);
+          add(sums.icp, J, n_ref.dot(d));
+        }
+      }
+
+      if (params.use_photometric && x >= 0 && y >= 0 && x < w - 1 && y < h - 1 &&
+          std::abs(q.z() - v_ref.z) <= max_d) {
+        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+        if (!(ref.vertex.at(x0, y0).w > 0 && ref.vertex.at(x0 + 1, y0).w > 0 && ref.vertex.at(x0, y0 + 1).w > 0 &&
+              ref.vertex.at(x0 + 1, y0 + 1).w > 0))
+          continue;
+        const double ax = x - x0, ay = y - y0;
+        const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
+        auto bilinear = [&](const auto& image, auto get) {
+          return w00 * get(image.at(x0, y0)) + w10 * get(image.at(x0 + 1, y0)) + w01 * get(image.at(x0, y0 + 1)) +
+                 w11 * get(image.at(x0 + 1, y0 + 1));
+        };
+        const double I_ref = bilinear(ref.intensity, [](float i) { return double(i); });
+        const double r = (I_ref - live.intensity.at(u, v)) / 255.0;
+        if (!(std::abs(r) <= params.max_intensity_diff)) continue;
+        const double gx = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.x); }) / 255.0;
+        const double gy = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.y); }) / 255.0;
+        // Chain rule: dI/dq = (gx, gy) * d pi(q) / dq, pi(q) = (fx qx/qz + cx, fy qy/qz + cy).
+        const double z = q.z();
+        const Eigen::Vector3d dI_dq(gx * k.fx / z, gy * k.fy / z, -(gx * k.fx * q.x() + gy * k.fy * q.y()) / (z * z));
+        Vector6d J;
+        J << dI_dq, q.cross(dI_dq);
+        add(sums.rgb, J, r);
+      }
+    }
+  return sums;
+}
+
+TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostLevel>& reference,
+                     const Eigen::Isometry3d& guess, const TrackerParams& params) {
+  validate(params, "reference::track");
+  if (live.empty() || live.size() != reference.size())
+    throw Error("reference::track: live has " + std::to_string(live.size()) + " levels, reference " +
+                std::to_string(reference.size()));
+  if (live.size() > params.iterations_per_level.size())
+    throw Error("reference::track: more pyramid levels than iterations_per_level entries");
+  std::vector<long> pixels;
+  for (const auto& level : live) pixels.push_back(static_cast<long>(level.intrinsics.width) * level.intrinsics.height);
+  return gauss_newton(
+      pixels, [&](int level, const Eigen::Isometry3d& T) { return compute_sums(live[level], reference[level], T, params); },
+      guess, params);
+}
+
+}  // namespace cofusion::slam::reference

@@ -1,0 +1,39 @@
+#pragma once
+// CPU reference of tracking: the per-iteration sums of shaders/icp_rgb_reduce.comp computed by a
+// plain loop in double over host copies of the maps, and a CPU-only track() that runs the same
+// Gauss-Newton loop (tracker_solver.h) on them. Written independently of the shader, for tests.
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec4.hpp>
+
+#include "common/intrinsics.h"
+#include "gpu/stream.h"
+#include "kernels/image.h"
+#include "kernels/preprocess.h"
+#include "slam/tracker_solver.h"
+
+namespace cofusion::slam::reference {
+
+// Host copy of the maps of one pyramid level that tracking reads.
+struct HostLevel {
+  Intrinsics intrinsics;
+  kernels::Image<glm::vec4> vertex;  // metres, w = 1 valid
+  kernels::Image<glm::vec4> normal;  // w = 1 valid
+  kernels::Image<float> intensity;   // [0, 255]
+  kernels::Image<glm::vec2> gradient;  // per pixel, [0, 255] units (reference maps only)
+};
+
+// Downloads the vertex, normal, intensity and gradient maps of `level` (synchronous).
+HostLevel download_level(gpu::Stream& stream, const kernels::FramePyramid::Level& level);
+std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& levels);
+
+// The sums of one iteration at pose T_reference_live (same definition as the GPU reduction).
+LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& reference,
+                              const Eigen::Isometry3d& T_reference_live, const TrackerParams& params);
+
+// Coarse-to-fine tracking on the CPU; same contract as Tracker::track.
+TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostLevel>& reference,
+                     const Eigen::Isometry3d& T_reference_live_guess, const TrackerParams& params);
+
+}  // namespace cofusion::slam::reference

@@ -1,0 +1,135 @@
+#include "slam/tracker_solver.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "common/error.h"
+
+namespace cofusion::slam {
+namespace {
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+}  // namespace
+
+void unpack_term(const std::array<double, LinearSystemSums::kTermValues>& term, Matrix6d& H, Vector6d& b) {
+  int k = 0;
+  for (int i = 0; i < 6; ++i)
+    for (int j = i; j < 6; ++j) H(i, j) = H(j, i) = term[k++];
+  for (int i = 0; i < 6; ++i) b(i) = term[21 + i];
+}
+
+double balanced_eigenvalue_ratio(const Matrix6d& H) {
+  const double trace_t = H.topLeftCorner<3, 3>().trace(), trace_r = H.bottomRightCorner<3, 3>().trace();
+  if (!(trace_t > 0) || !(trace_r > 0)) return 0;
+  // Rotation by w moves a point at distance d by about d*w: rescaling w by d (the effective
+  // radius, from the two traces) puts both blocks in metres of point motion.
+  const double d = std::sqrt(trace_r / trace_t);
+  Vector6d s;
+  s << 1, 1, 1, 1 / d, 1 / d, 1 / d;
+  const Matrix6d Hs = s.asDiagonal() * H * s.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(Hs, Eigen::EigenvaluesOnly);
+  const auto& ev = eig.eigenvalues();  // ascending
+  if (!(ev(5) > 0)) return 0;
+  return std::max(0.0, ev(0)) / ev(5);
+}
+
+void validate(const TrackerParams& p, const std::string& what) {
+  auto bad = [&](const std::string& why) { throw Error(what + ": invalid tracker parameter: " + why); };
+  if (p.iterations_per_level.empty()) bad("iterations_per_level is empty");
+  for (int n : p.iterations_per_level)
+    if (n < 0) bad("iterations_per_level has a negative entry");
+  if (!(p.max_correspondence_distance_m > 0)) bad("max_correspondence_distance_m must be > 0");
+  if (!(p.max_normal_angle_deg > 0 && p.max_normal_angle_deg <= 180)) bad("max_normal_angle_deg must be in (0, 180]");
+  if (!(p.photometric_weight >= 0 && std::isfinite(p.photometric_weight))) bad("photometric_weight must be >= 0");
+  if (!(p.max_intensity_diff > 0)) bad("max_intensity_diff must be > 0");
+  if (p.min_correspondences < 0) bad("min_correspondences must be >= 0");
+  if (!(p.min_inlier_ratio >= 0 && p.min_inlier_ratio <= 1)) bad("min_inlier_ratio must be in [0, 1]");
+  if (!(p.min_eigenvalue_ratio >= 0 && p.min_eigenvalue_ratio < 1)) bad("min_eigenvalue_ratio must be in [0, 1)");
+  if (!(p.max_step_translation_m > 0) || !(p.max_step_rotation_deg > 0)) bad("max step sizes must be > 0");
+  if (!(p.max_translation_from_guess_m > 0) || !(p.max_rotation_from_guess_deg > 0))
+    bad("max motion from the guess must be > 0");
+  if (!(p.converged_translation_m >= 0) || !(p.converged_rotation_rad >= 0)) bad("convergence thresholds must be >= 0");
+  if (p.reduction_workgroups < 1) bad("reduction_workgroups must be >= 1");
+}
+
+TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtLevel& sums,
+                            const Eigen::Isometry3d& guess, const TrackerParams& params) {
+  TrackingResult result;
+  result.T_reference_live = guess;
+  auto fail = [&](const std::string& reason) {
+    result.failed = true;
+    result.failure_reason = reason;
+    result.T_reference_live = guess;
+    return result;
+  };
+  const int levels = static_cast<int>(level_pixels.size());
+  Eigen::Isometry3d T = guess;
+  bool evaluated = false;
+  for (int level = levels - 1; level >= 0; --level) {
+    const std::string where = "level " + std::to_string(level);
+    // Fewer pixels, fewer correspondences needed (but never fewer than two per unknown).
+    const double pixel_share = static_cast<double>(level_pixels[level]) / static_cast<double>(level_pixels[0]);
+    const double min_corr = std::max(12.0, params.min_correspondences * pixel_share);
+    for (int it = 0; it < params.iterations_per_level[level]; ++it) {
+      const LinearSystemSums s = sums(level, T);
+      evaluated = true;
+      ++result.iterations;
+      result.icp_inliers = static_cast<int>(s.icp[28]);
+      result.rgb_residuals = static_cast<int>(s.rgb[28]);
+      result.valid_live_pixels = static_cast<int>(s.valid_live_pixels);
+      result.inlier_ratio = s.valid_live_pixels > 0 ? s.icp[28] / s.valid_live_pixels : 0.0;
+      result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
+      result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
+      if (s.icp[28] < min_corr)
+        return fail("too few ICP correspondences at " + where + ": " + std::to_string(result.icp_inliers) +
+                    " < " + fmt(min_corr));
+
+      Matrix6d H, H_rgb;
+      Vector6d b, b_rgb;
+      unpack_term(s.icp, H, b);
+      if (params.use_photometric && s.rgb[28] > 0) {
+        unpack_term(s.rgb, H_rgb, b_rgb);
+        H += params.photometric_weight * H_rgb;
+        b += params.photometric_weight * b_rgb;
+      }
+      if (!H.allFinite() || !b.allFinite()) return fail("non-finite linear system at " + where);
+      result.eigenvalue_ratio = balanced_eigenvalue_ratio(H);
+      if (result.eigenvalue_ratio < params.min_eigenvalue_ratio)
+        return fail("degenerate system at " + where + ": balanced eigenvalue ratio " +
+                    fmt(result.eigenvalue_ratio) + " < " + fmt(params.min_eigenvalue_ratio) +
+                    " (motion along some direction is unobservable)");
+
+      const Vector6d xi = H.ldlt().solve(-b);
+      if (!xi.allFinite()) return fail("non-finite update at " + where);
+      const double step_t = xi.head<3>().norm(), step_r = xi.tail<3>().norm();
+      if (step_t > params.max_step_translation_m || step_r > params.max_step_rotation_deg * kRadPerDeg)
+        return fail("diverged at " + where + ": step of " + fmt(step_t) + " m, " + fmt(step_r / kRadPerDeg) + " deg");
+      T = orthonormalised(se3_exp(xi) * T);
+      if (step_t < params.converged_translation_m && step_r < params.converged_rotation_rad) break;
+    }
+  }
+  if (!evaluated) return fail("no Gauss-Newton iterations configured");
+
+  const Eigen::Isometry3d delta = guess.inverse() * T;
+  const double moved_t = delta.translation().norm(), moved_r = rotation_angle_rad(delta);
+  if (moved_t > params.max_translation_from_guess_m || moved_r > params.max_rotation_from_guess_deg * kRadPerDeg)
+    return fail("moved too far from the guess: " + fmt(moved_t) + " m, " + fmt(moved_r / kRadPerDeg) + " deg");
+  if (result.inlier_ratio < params.min_inlier_ratio)
+    return fail("inlier ratio " + fmt(result.inlier_ratio) + " < " + fmt(params.min_inlier_ratio) + " (" +
+                std::to_string(result.icp_inliers) + " of " + std::to_string(result.valid_live_pixels) +
+                " valid live pixels)");
+  result.T_reference_live = T;
+  return result;
+}
+
+}  // namespace cofusion::slam

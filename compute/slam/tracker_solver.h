@@ -1,0 +1,114 @@
+#pragma once
+// Parameters, result and the host side of frame-to-model tracking: the Gauss-Newton loop over
+// the per-iteration sums, shared by the GPU tracker (tracker.h) and its CPU reference
+// (tracker_reference.h) so both run exactly the same solver, checks and failure rules.
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "common/se3.h"
+
+namespace cofusion::slam {
+
+// Every threshold of tracking. Units in the names; defaults after ElasticFusion where it has
+// one, else measured on the synthetic scenes and TUM fr2/desk (see tests/slam/tracker_test.cpp).
+struct TrackerParams {
+  // Most Gauss-Newton iterations per pyramid level, index 0 = full resolution. Each level has 1/4
+  // of the pixels of the one below, so coarse iterations are cheap and do most of the work.
+  // Measured on lavapipe (2 cores shared with other work): one 640x480 iteration costs 22 ms
+  // (ICP) or 34 ms (ICP + photometric), 80x60 under 1 ms; track() typically stops after about
+  // 10 iterations (converged_*) in 33 ms (ICP) or 56 ms (both). On TUM fr2/desk 1, 2 or 4
+  // full-resolution iterations gave the same accuracy.
+  std::vector<int> iterations_per_level = {2, 4, 6, 10};
+
+  // ICP data association (ElasticFusion's values): projective nearest pixel, then rejection.
+  double max_correspondence_distance_m = 0.1;  // |T v_live - v_ref| above this: no correspondence
+  double max_normal_angle_deg = 20.0;          // angle(R n_live, n_ref) above this: no correspondence
+
+  // Photometric term. Residuals are in intensity / 255 (so in [-1, 1]), ICP residuals in metres;
+  // the combined system is H = H_icp + lambda * H_rgb. lambda = (sigma_icp / sigma_rgb)^2 weighs
+  // each term by its inverse noise variance: about 3 mm of depth noise against about 2.5/255 of
+  // intensity noise gives 0.1.
+  bool use_photometric = true;
+  // Measured on the TUM recordings with whole-sequence tracking (cofusion run): 1.0 halves the
+  // fast-rotation fr1/rpy error of 0.1 (2.5 vs 4.4 cm ATE over 100 frames) and keeps fr2/desk.
+  double photometric_weight = 1.0;  // the paper's lambda
+  // |I_ref - I_live| / 255 above this is an outlier (occlusion, specularity, wrong association).
+  double max_intensity_diff = 0.3;
+
+  // Failure rules. On failure the result pose is the guess.
+  // Fewest ICP correspondences at full resolution; coarser levels need this times their share of
+  // the full-resolution pixels (at least 12).
+  int min_correspondences = 1000;
+  // Final ICP inliers / live pixels with a valid vertex and normal (at the finest level run). For
+  // object models, whose predicted view covers part of the image, the caller lowers this.
+  double min_inlier_ratio = 0.1;
+  // The system is degenerate when, after balancing its rotation block against its translation
+  // block (rotation rescaled by the point cloud's effective radius), its smallest eigenvalue is
+  // below this fraction of its largest (e.g. a single plane without texture: motion along it is
+  // unobservable).
+  double min_eigenvalue_ratio = 1e-5;
+  // A single Gauss-Newton step larger than this is divergence, not convergence.
+  double max_step_translation_m = 0.2;
+  double max_step_rotation_deg = 20.0;
+  // The estimate may move at most this far from the guess over the whole call.
+  double max_translation_from_guess_m = 0.5;
+  double max_rotation_from_guess_deg = 45.0;
+
+  // A level stops early once a step moves less than both of these (0.1 mm, 0.006 degrees).
+  double converged_translation_m = 1e-4;
+  double converged_rotation_rad = 1e-4;
+
+  // GPU only: workgroups of the reduction (each loops over its share of the pixels). A few large
+  // ones suit lavapipe (2 threads); discrete GPUs want many more.
+  int reduction_workgroups = 16;
+};
+
+struct TrackingResult {
+  Eigen::Isometry3d T_reference_live = Eigen::Isometry3d::Identity();  // the guess when failed
+  // Statistics of the last iteration (finest level run), measured at the pose before its update
+  // (that update is below the convergence thresholds when the level converged).
+  int icp_inliers = 0;        // ICP correspondences
+  int rgb_residuals = 0;      // photometric residuals (0 without the term)
+  int valid_live_pixels = 0;  // live pixels with a valid vertex and normal
+  double inlier_ratio = 0;    // icp_inliers / valid_live_pixels
+  double icp_rms_m = 0;       // RMS point-to-plane residual, metres
+  double rgb_rms = 0;         // RMS photometric residual, intensity / 255
+  double eigenvalue_ratio = 0;  // balanced smallest / largest eigenvalue of the last system
+  int iterations = 0;         // Gauss-Newton iterations run over all levels
+  bool failed = false;
+  std::string failure_reason;  // one line; empty unless failed
+};
+
+// The sums one iteration needs, in double. Each term: J^T J upper triangle (21, row-major), J^T r
+// (6), sum r^2, number of residuals (see shaders/shared/host_device.h).
+struct LinearSystemSums {
+  static constexpr int kTermValues = 29;
+  std::array<double, kTermValues> icp{};
+  std::array<double, kTermValues> rgb{};
+  double valid_live_pixels = 0;  // live pixels with a valid vertex and normal
+};
+
+// Unpacks one term into H = J^T J, b = J^T r.
+void unpack_term(const std::array<double, LinearSystemSums::kTermValues>& term, Matrix6d& H, Vector6d& b);
+
+// Smallest / largest eigenvalue of H after scaling the rotation rows/columns so both diagonal
+// blocks have equal trace (0 when H has no translation information).
+double balanced_eigenvalue_ratio(const Matrix6d& H);
+
+// The sums of one iteration at pyramid level `level` (0 = finest) and pose T_reference_live.
+using SumsAtLevel = std::function<LinearSystemSums(int level, const Eigen::Isometry3d& T_reference_live)>;
+
+// Coarse-to-fine Gauss-Newton over `level_pixels.size()` levels (pixel counts, finest first):
+// T <- exp(xi) * T with H xi = -b, H = H_icp + lambda H_rgb. Applies every failure rule of
+// `params`; on failure returns the guess.
+TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtLevel& sums,
+                            const Eigen::Isometry3d& T_reference_live_guess, const TrackerParams& params);
+
+// Throws cofusion::Error naming `what` when a parameter is out of range.
+void validate(const TrackerParams& params, const std::string& what);
+
+}  // namespace cofusion::slam
