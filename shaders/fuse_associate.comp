@@ -31,6 +31,7 @@ void main() {
   uint S = p.grid_scale, grid_width = p.width * S;
   uint best = FUSE_NO_SURFEL;
   float best_confidence = -1.0, best_ray_dist = 1e30;
+  bool depth_agrees = false;
   for (uint sy = 0u; sy < S; ++sy) {
     for (uint sx = 0u; sx < S; ++sx) {
       uint64_t key = index_map[(px.y * S + sy) * grid_width + px.x * S + sx];
@@ -40,6 +41,7 @@ void main() {
       vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
       vec3 nc = rigid_rotate(p.T_camera_model, vec3(s.nx, s.ny, s.nz));
       if (abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005) continue;
+      depth_agrees = true;
       if (dot(nc, n.xyz) < p.min_normal_dot) continue;
       float ray_dist = length(cross(pc, ray));
       if (ray_dist < best_ray_dist || (ray_dist == best_ray_dist && s.confidence > best_confidence)) {
@@ -49,6 +51,8 @@ void main() {
       }
     }
   }
-  assoc[i] = best;
+  // A pixel on a known surface whose normal disagrees (sensor noise) neither updates it nor
+  // spawns a duplicate; new surfels come only from surface not yet in the model.
+  assoc[i] = (best == FUSE_NO_SURFEL && depth_agrees) ? FUSE_SKIP_PIXEL : best;
   if (best != FUSE_NO_SURFEL) atomicMin(claim[best], i);
 }

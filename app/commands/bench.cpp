@@ -5,7 +5,10 @@
 #include "commands/frame_upload.h"
 #include "commands/gpu_options.h"
 #include "commands/stage_timer.h"
+#include "commands/sources.h"
 #include "kernels/preprocess.h"
+#include "slam/dense_slam.h"
+#include <opencv2/imgproc.hpp>
 
 namespace cofusion::commands {
 namespace {
@@ -14,7 +17,56 @@ struct BenchOptions {
   GpuCliOptions gpu;
   int iterations = 30;
   int warmup = 3;
+  std::string input = "synthetic:static_room";  // frames for the whole-pipeline figures
+  int frames = 50;
+  bool kernels = true;   // per-kernel figures
+  bool pipeline = true;  // whole-frame figures
 };
+
+// Halves a frame (and its intrinsics) for the 320x240 figures: depth by nearest neighbour, so
+// no depths are mixed across edges; colour by area averaging.
+Frame half_resolution(const Frame& f) {
+  Frame h = f;
+  cv::resize(f.depth_m, h.depth_m, cv::Size(f.depth_m.cols / 2, f.depth_m.rows / 2), 0, 0, cv::INTER_NEAREST);
+  cv::resize(f.rgb, h.rgb, cv::Size(f.rgb.cols / 2, f.rgb.rows / 2), 0, 0, cv::INTER_AREA);
+  h.intrinsics = f.intrinsics.at_level(1);
+  return h;
+}
+
+void print_table(const StageTimes& times) {
+  std::printf("%-34s %10s %10s %10s\n", "stage", "median ms", "min ms", "max ms");
+  for (const auto& stage : times.stages()) {
+    const auto& s = times.samples(stage);
+    std::printf("%-34s %10.3f %10.3f %10.3f\n", stage.c_str(), times.median(stage), *std::min_element(s.begin(), s.end()),
+                *std::max_element(s.begin(), s.end()));
+  }
+}
+
+// The whole pipeline (upload, preprocess, predict, track, fuse) over frames held in memory, so
+// that reading and decoding files is not timed. The first frames (model start-up, pipeline
+// compilation) are not counted.
+void bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const std::string& label) {
+  if (frames.size() < 4) throw Error("bench: need at least 4 frames of input for the pipeline figures");
+  const Intrinsics k = frames[0].intrinsics;
+  slam::DenseSlam slam(ctx, k, slam::SlamParams{});
+  StageTimes times;
+  const size_t skip = 2;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto r = slam.process(frames[i].depth_m.ptr<float>(), frames[i].rgb.data);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (i < skip) continue;
+    for (const auto& [stage, stage_ms] : r.stage_ms) times.add(stage, stage_ms);
+    times.add("whole frame", ms);
+  }
+  std::printf("\npipeline %s (%dx%d, %zu frames, first %zu not counted), %u surfels at the end\n", label.c_str(), k.width,
+              k.height, frames.size(), skip, slam.model().count());
+  print_table(times);
+  double total = 0;
+  for (double ms : times.samples("whole frame")) total += ms;
+  std::printf("frames per second: %.2f (median frame), %.2f (mean frame)\n", 1000.0 / times.median("whole frame"),
+              1000.0 * double(times.samples("whole frame").size()) / total);
+}
 
 // Times `record` submitted alone, `iterations` times, after `warmup` untimed runs (the first
 // dispatch of a pipeline compiles it on Mesa).
@@ -90,20 +142,38 @@ void add_bench(CLI::App& app) {
   options->gpu.add_to(*cmd);
   cmd->add_option("--iterations", options->iterations, "Timed repetitions per stage")->check(CLI::PositiveNumber);
   cmd->add_option("--warmup", options->warmup, "Untimed repetitions first (pipeline compilation)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--input", options->input, "Frames for the whole-pipeline figures (a SOURCE as for run)");
+  cmd->add_option("--frames", options->frames, "How many frames of --input to run")->check(CLI::PositiveNumber);
+  cmd->add_flag("!--no-kernels", options->kernels, "Skip the per-kernel figures");
+  cmd->add_flag("!--no-pipeline", options->pipeline, "Skip the whole-pipeline figures");
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
     gpu::Context ctx(options->gpu.context_options());
     std::printf("device: %s\n", ctx.description().c_str());
-    StageTimes times;
-    bench_preprocessing(ctx, Intrinsics{}, *options, times);
-    std::printf("%-34s %10s %10s %10s\n", "stage", "median ms", "min ms", "max ms");
-    for (const auto& stage : times.stages()) {
-      const auto& s = times.samples(stage);
-      std::printf("%-34s %10.3f %10.3f %10.3f\n", stage.c_str(), times.median(stage), *std::min_element(s.begin(), s.end()),
-                  *std::max_element(s.begin(), s.end()));
+    if (options->kernels) {
+      StageTimes times;
+      bench_preprocessing(ctx, Intrinsics{}, *options, times);
+      std::printf("\nkernels (built-in test frame)\n");
+      print_table(times);
+      const double frame_ms = times.median("upload 640x480") + times.median("preprocess whole frame 640x480");
+      std::printf("preprocessing throughput: %.1f frames per second (upload + whole-frame preprocessing)\n",
+                  1000.0 / frame_ms);
     }
-    const double frame_ms = times.median("upload 640x480") + times.median("preprocess whole frame 640x480");
-    std::printf("preprocessing throughput: %.1f frames per second (upload + whole-frame preprocessing)\n", 1000.0 / frame_ms);
+    if (options->pipeline) {
+      SourceOptions source_options;
+      source_options.max_frames = options->frames;
+      auto source = open_source(options->input, source_options);
+      std::printf("input: %s\n", source->describe().c_str());
+      std::vector<Frame> full, half;
+      while (auto frame = source->next()) {
+        if (!frame->depth_m.isContinuous()) frame->depth_m = frame->depth_m.clone();
+        if (!frame->rgb.isContinuous()) frame->rgb = frame->rgb.clone();
+        half.push_back(half_resolution(*frame));
+        full.push_back(std::move(*frame));
+      }
+      bench_pipeline(ctx, full, "full resolution");
+      bench_pipeline(ctx, half, "half resolution");
+    }
     if (ctx.validation_error_count() > 0) throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors");
   });
 }

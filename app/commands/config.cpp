@@ -47,7 +47,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const json& p = root["preprocess"];
     const std::string where = file + ": preprocess";
     check_keys(p, {"min_depth_m", "max_depth_m", "bilateral", "bilateral_radius_px", "bilateral_sigma_space_px",
-                   "bilateral_sigma_depth_m", "pyramid_levels", "pyramid_max_depth_diff_m"},
+                   "bilateral_sigma_depth_m", "pyramid_levels", "pyramid_max_depth_diff_m", "live_gradients"},
                where);
     auto& c = config.slam.preprocess;
     read(p, "min_depth_m", c.min_depth_m, where);
@@ -58,6 +58,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "bilateral_sigma_depth_m", c.bilateral_sigma_depth_m, where);
     read(p, "pyramid_levels", c.pyramid_levels, where);
     read(p, "pyramid_max_depth_diff_m", c.pyramid_max_depth_diff_m, where);
+    read(p, "live_gradients", c.live_gradients, where);
     if (!(c.min_depth_m >= 0 && c.max_depth_m > c.min_depth_m))
       throw Error(where + ": need 0 <= min_depth_m < max_depth_m");
     if (c.pyramid_levels < 1 || c.pyramid_levels > 8) throw Error(where + ".pyramid_levels: must be 1..8");

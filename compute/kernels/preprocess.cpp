@@ -136,7 +136,7 @@ void Preprocessor::record_frame(gpu::CommandList& cmd, FramePyramid& f, float me
   }
   for (auto& level : f.levels) {
     vertex_normal_map(cmd, level.depth_m, level.vertex, level.normal, level.intrinsics);
-    intensity_gradient(cmd, level.intensity, level.gradient, level.width, level.height);
+    if (params.live_gradients) intensity_gradient(cmd, level.intensity, level.gradient, level.width, level.height);
   }
   cmd.barrier();
 }

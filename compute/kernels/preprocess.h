@@ -22,7 +22,7 @@ struct FramePyramid {
     gpu::BufferPtr intensity;  // float[] in [0, 255]
     gpu::BufferPtr vertex;     // vec4[] camera frame, metres
     gpu::BufferPtr normal;     // vec4[]
-    gpu::BufferPtr gradient;   // vec2[] dI/dx, dI/dy
+    gpu::BufferPtr gradient;   // vec2[] dI/dx, dI/dy (live frames: only with PreprocessParams::live_gradients)
   };
   gpu::BufferPtr raw_depth;     // uint16 units (packed), level-0 size
   gpu::BufferPtr rgb;           // RGB8 bytes, level-0 size

@@ -121,6 +121,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
       const vec3 ray = glm::normalize(vec3(v));
       uint32_t best = FUSE_NO_SURFEL;
       float best_confidence = -1.0f, best_ray_dist = 1e30f;
+      bool depth_agrees = false;
       for (uint32_t sy = 0; sy < S; ++sy)
         for (uint32_t sx = 0; sx < S; ++sx) {
           const uint64_t key = index_map[size_t(y * S + sy) * grid_width + x * S + sx];
@@ -129,6 +130,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
           const Surfel& s = surfels[si];
           const vec3 pc = apply(p.T_camera_model, position(s)), nc = rotate(p.T_camera_model, normal_of(s));
           if (std::abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005f) continue;
+          depth_agrees = true;
           if (glm::dot(nc, vec3(n)) < p.min_normal_dot) continue;
           const float ray_dist = glm::length(glm::cross(pc, ray));
           if (ray_dist < best_ray_dist || (ray_dist == best_ray_dist && s.confidence > best_confidence)) {
@@ -137,7 +139,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
             best_ray_dist = ray_dist;
           }
         }
-      a.assoc[i] = best;
+      a.assoc[i] = (best == FUSE_NO_SURFEL && depth_agrees) ? FUSE_SKIP_PIXEL : best;
       if (best != FUSE_NO_SURFEL) a.claim[best] = std::min(a.claim[best], i);
     }
   return a;

@@ -222,6 +222,8 @@ TEST_F(PreprocessKernels, WholeFrameChainMatchesReferenceChain) {
     for (size_t i = 0; i < raw.size(); ++i) raw.pixels[i] = static_cast<uint16_t>(std::lround(depth.pixels[i] * 5000.0f));
     const auto rgb = make_rgb(s, 7);
     kernels::PreprocessParams params;
+    params.live_gradients = true;
+    params.bilateral_radius_px = 2;
     auto frame = kernels::FramePyramid::allocate(ctx(), k, params.pyramid_levels, "test frame");
     stream().upload(frame.raw_depth, raw.pixels.data(), raw.bytes());
     stream().upload(frame.rgb, rgb.data(), rgb.size());
@@ -252,6 +254,11 @@ TEST_F(PreprocessKernels, WholeFrameChainMatchesReferenceChain) {
             glm::length(glm::vec3(v_gpu.pixels[i] - v_ref.pixels[i])) > 1e-5f * (1 + v_ref.pixels[i].z))
           ++bad;
       EXPECT_EQ(bad, 0) << "chain vertices L" << l << " " << name(s);
+      const auto g_ref = ref::intensity_gradient(in);
+      const auto g_gpu = download<glm::vec2>(level.gradient, d.width, d.height);
+      bad = 0;
+      for (size_t i = 0; i < g_ref.size(); ++i) bad += glm::length(g_gpu.pixels[i] - g_ref.pixels[i]) > 1e-3f;
+      EXPECT_EQ(bad, 0) << "chain gradients L" << l << " " << name(s);
     }
   }
 }

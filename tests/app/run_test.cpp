@@ -1,0 +1,140 @@
+// End-to-end: the `cofusion` executable on generated scenes and on the TUM recordings, with
+// camera ATE against ground truth asserted, plus the command-line contract on bad input.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "eval/trajectory_metrics.h"
+#include "io/trajectory.h"
+#include "support/test_support.h"
+#include "synthetic/synthetic_source.h"
+
+namespace cofusion::test {
+namespace {
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct Result {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+Result run_cofusion(const std::string& args) {
+  const std::string command = cofusion_exe().string() + " " + args + " 2>&1";
+  Result r;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buffer{};
+  while (size_t n = std::fread(buffer.data(), 1, buffer.size(), pipe)) r.output.append(buffer.data(), n);
+  const int status = ::pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+double camera_ate_m(const Trajectory& gt, const fs::path& out) {
+  return eval::compute_ate(gt, read_tum_trajectory(out / "trajectories" / "camera.txt")).translation_m.rmse;
+}
+
+void expect_complete_output(const fs::path& out, int frames) {
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_EQ(summary["frames"].get<int>(), frames);
+  EXPECT_GT(summary["fps"].get<double>(), 0.0);
+  EXPECT_FALSE(summary["device"].get<std::string>().empty());
+  for (const char* stage : {"preprocess", "predict", "track", "fuse"}) EXPECT_TRUE(summary["stages_ms"].contains(stage)) << stage;
+  ASSERT_EQ(summary["models"].size(), 1u);
+  EXPECT_GT(summary["models"][0]["surfels"].get<int>(), 10000);
+  EXPECT_TRUE(summary["tracking_failures"].empty()) << summary["tracking_failures"].dump();
+  EXPECT_EQ(read_tum_trajectory(out / "trajectories" / "camera.txt").size(), size_t(frames));
+  for (const char* f : {"models/model-0.glb", "models/model-0.ply", "scene.glb"}) EXPECT_TRUE(fs::exists(out / f)) << f;
+  for (const auto& entry : fs::recursive_directory_iterator(out))
+    EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp-"))) << "temporary file left behind";
+}
+
+TEST(RunCommand, StaticSyntheticRoomTracksWithinFiveMillimetres) {
+  const fs::path out = fresh_temp_dir();
+  const int frames = 40;
+  const Result r = run_cofusion("run --headless --validation --input synthetic:static_room --max-frames " +
+                                std::to_string(frames) + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("device:"));
+  expect_complete_output(out, frames);
+  const synthetic::SyntheticSequence scene(synthetic::load_scene("static_room"), 0, frames);
+  const double ate = camera_ate_m(scene.camera_trajectory(), out);
+  RecordProperty("camera_ate_m", std::to_string(ate));
+  EXPECT_LE(ate, 0.005);
+}
+
+TEST(RunCommand, TumFr2DeskWithinSixMillimetresSlow) {
+  const auto data = data_dir("tum_fr2_desk_50");
+  if (!data) {
+    GTEST_SKIP() << "TUM fr2/desk recording not found (set COFUSION_DATA)";
+  }
+  const fs::path out = fresh_temp_dir();
+  const Result r = run_cofusion("run --headless --input tum:" + data->string() + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  expect_complete_output(out, 50);
+  const double ate = camera_ate_m(read_tum_trajectory(*data / "groundtruth.txt"), out);
+  RecordProperty("camera_ate_m", std::to_string(ate));
+  EXPECT_LE(ate, 0.006);
+}
+
+TEST(RunCommand, TumFr1RpyFastRotationWithinThreeCentimetresSlow) {
+  const auto data = data_dir("tum_fr1_rpy_200");
+  if (!data) {
+    GTEST_SKIP() << "TUM fr1/rpy recording not found (set COFUSION_DATA)";
+  }
+  const fs::path out = fresh_temp_dir();
+  const Result r = run_cofusion("run --headless --input tum:" + data->string() + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  expect_complete_output(out, 200);
+  const double ate = camera_ate_m(read_tum_trajectory(*data / "groundtruth.txt"), out);
+  RecordProperty("camera_ate_m", std::to_string(ate));
+  EXPECT_LE(ate, 0.03);
+}
+
+TEST(RunCommand, MissingInputFailsWithOneLineReasonAndNoOutput) {
+  const fs::path out = fresh_temp_dir() / "never";
+  const Result r = run_cofusion("run --headless --input tum:/no/such/folder --output " + out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("/no/such/folder"));
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
+TEST(RunCommand, UnwritableOutputFailsBeforeProcessing) {
+  const fs::path dir = fresh_temp_dir();
+  std::ofstream(dir / "a-file") << "x";
+  const Result r = run_cofusion("run --headless --max-frames 2 --output " + (dir / "a-file" / "out").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("a-file"));
+}
+
+TEST(RunCommand, BadConfigNamesFileAndKey) {
+  const fs::path dir = fresh_temp_dir();
+  std::ofstream(dir / "config.json") << R"({"tracker": {"photometric_wieght": 2}})";
+  const Result r = run_cofusion("run --headless --config " + (dir / "config.json").string() + " --output " +
+                                (dir / "out").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("photometric_wieght"));
+  EXPECT_THAT(r.output, HasSubstr("config.json"));
+}
+
+TEST(RunCommand, EverySubcommandHasHelp) {
+  for (const char* sub : {"run", "bench", "eval", "generate", "convert"}) {
+    const Result r = run_cofusion(std::string(sub) + " --help");
+    EXPECT_EQ(r.exit_code, 0) << sub;
+    EXPECT_THAT(r.output, HasSubstr("--")) << sub;
+  }
+  EXPECT_NE(run_cofusion("no-such-command").exit_code, 0);
+}
+
+}  // namespace
+}  // namespace cofusion::test
