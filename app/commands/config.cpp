@@ -71,7 +71,8 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const std::string where = file + ": tracker";
     check_keys(p, {"iterations_per_level", "max_correspondence_distance_m", "max_normal_angle_deg", "use_photometric",
                    "photometric_weight", "max_intensity_diff", "min_correspondences", "min_inlier_ratio",
-                   "min_eigenvalue_ratio", "reduction_workgroups"},
+                   "min_eigenvalue_ratio", "reduction_workgroups", "converged_translation_m",
+                   "converged_rotation_rad"},
                where);
     auto& c = config.slam.tracker;
     read(p, "iterations_per_level", c.iterations_per_level, where);
@@ -84,6 +85,8 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "min_inlier_ratio", c.min_inlier_ratio, where);
     read(p, "min_eigenvalue_ratio", c.min_eigenvalue_ratio, where);
     read(p, "reduction_workgroups", c.reduction_workgroups, where);
+    read(p, "converged_translation_m", c.converged_translation_m, where);
+    read(p, "converged_rotation_rad", c.converged_rotation_rad, where);
     for (int n : c.iterations_per_level)
       if (n < 0 || n > 100) throw Error(where + ".iterations_per_level: each must be 0..100");
   }

@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# The tests: installs what is missing (apt-get), builds with warnings as errors, runs every
+# GoogleTest case through ctest with Vulkan validation on. Real-data cases use $COFUSION_DATA
+# (default: ../shared/data beside this checkout) and skip when it is absent.
+# Quick local loop without the slow real-data cases: ctest --test-dir build -E Slow
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+if [ -z "${COFUSION_DATA:-}" ]; then
+  for d in "$root/../shared/data" /work/shared/data; do
+    if [ -d "$d" ]; then export COFUSION_DATA="$(cd "$d" && pwd)"; break; fi
+  done
+fi
+"$root/.ci/install-deps.sh"
+"$root/.ci/build.sh" -DCOFUSION_WERROR=ON
+ctest --test-dir "$root/build" --output-on-failure --parallel 2 --timeout 900
