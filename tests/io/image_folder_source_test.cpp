@@ -14,14 +14,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 // `n` 24x16 frames named without zero padding (img1 .. imgN) so name order != natural order.
 std::vector<Frame> write_folder(const fs::path& dir, int n, const std::string& colour_dir = "colour") {

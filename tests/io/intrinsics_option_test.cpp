@@ -11,14 +11,7 @@ namespace cofusion {
 namespace {
 using ::testing::HasSubstr;
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 TEST(IntrinsicsPreset, TumAndPrimesenseValues) {
   const auto fr1 = intrinsics_preset("fr1");

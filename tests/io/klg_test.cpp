@@ -17,14 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 constexpr int kW = 40, kH = 30;
 const char* const kSize = "30,30,19.5,14.5,40,30";  // intrinsics option with the test image size

@@ -15,14 +15,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 TEST(SourceSpec, SchemeAndPath) {
   auto s = parse_source_spec("tum:/data/fr2:desk");  // only the first colon separates

@@ -1,5 +1,7 @@
 #include "support/test_support.h"
 
+#include "common/error.h"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -37,6 +39,15 @@ fs::path fresh_temp_dir(const std::string& hint) {
 fs::path cofusion_exe() {
   const char* env = std::getenv("COFUSION_EXE");
   return env ? fs::path(env) : fs::path("cofusion");
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
 }
 
 fs::path source_dir() {

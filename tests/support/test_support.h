@@ -1,6 +1,7 @@
 #pragma once
 // Helpers shared by every test suite: where the real recordings are, fresh temporary folders.
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -16,6 +17,9 @@ std::filesystem::path fresh_temp_dir(const std::string& hint = "");
 
 // Path of the built `cofusion` executable ($COFUSION_EXE), for end-to-end tests.
 std::filesystem::path cofusion_exe();
+
+// The message of the cofusion::Error that `f` throws, or "(no error)" when it throws none.
+std::string error_of(const std::function<void()>& f);
 
 // Source tree root ($COFUSION_SOURCE_DIR), for tests that read assets/.
 std::filesystem::path source_dir();
