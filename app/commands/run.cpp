@@ -15,6 +15,8 @@
 #include "io/atomic_file.h"
 #include "export/model_export.h"
 #include "io/trajectory.h"
+#include "renderer/overlay.h"
+#include "renderer/viewer.h"
 #include "slam/dense_slam.h"
 
 namespace cofusion::commands {
@@ -30,8 +32,20 @@ struct RunOptions {
   bool save_segmentation = false;
   std::string intrinsics;
   unsigned seed = 0;
+  std::string screenshot;
   GpuCliOptions gpu;
 };
+
+// The final view for --screenshot without a window: from behind and above the last camera pose,
+// looking where it looked, with the trajectory, the camera frustum and model boxes drawn in.
+renderer::VirtualCamera overview_camera(const Intrinsics& intrinsics, const Pose& T_world_camera) {
+  const Eigen::Vector3d centre = T_world_camera.translation();
+  const Eigen::Vector3d forward = T_world_camera.linear().col(2), down = T_world_camera.linear().col(1);
+  renderer::VirtualCamera camera;
+  camera.intrinsics = intrinsics;
+  camera.T_world_view = renderer::look_at(centre - 0.8 * forward - 0.5 * down, centre + 1.5 * forward, -down);
+  return camera;
+}
 
 // A frame with no usable depth cannot be tracked or fused: reject it with its index and time.
 void check_frame(const Frame& frame, const Intrinsics& intrinsics) {
@@ -59,10 +73,25 @@ void run(const RunOptions& o) {
   ensure_writable_directory(out_dir);
   ensure_writable_directory(out_dir / "trajectories");
   if (o.save_segmentation) ensure_writable_directory(out_dir / "segmentation");
+  if (!o.screenshot.empty()) {
+    const fs::path parent = fs::path(o.screenshot).parent_path();
+    ensure_writable_directory(parent.empty() ? fs::path(".") : parent);
+  }
 
-  gpu::Context ctx(o.gpu.context_options());
+  gpu::ContextOptions context_options = o.gpu.context_options();
+  if (!o.headless) {
+    try {
+      renderer::Viewer::add_required_extensions(context_options);
+    } catch (const std::exception& e) {
+      throw Error(std::string("cannot open the viewer (") + e.what() + "); run with --headless");
+    }
+  }
+  gpu::Context ctx(context_options);
   std::printf("device: %s\ninput: %s\n", ctx.description().c_str(), source->describe().c_str());
-  if (!o.headless) std::printf("note: the viewer is not part of this build yet; running headless\n");
+  std::unique_ptr<renderer::ViewRenderer> view_renderer;
+  std::unique_ptr<renderer::Viewer> viewer;
+  if (!o.headless || !o.screenshot.empty()) view_renderer = std::make_unique<renderer::ViewRenderer>(ctx);
+  if (!o.headless) viewer = std::make_unique<renderer::Viewer>(ctx);
 
   slam::DenseSlam slam(ctx, intrinsics, config.slam);
   StageTimes times;
@@ -71,7 +100,33 @@ void run(const RunOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   int frames = 0;
   const bool tty = ::isatty(STDOUT_FILENO);
+  Pose T_world_camera_last = Pose::Identity();
+  const auto make_overlay = [&](const std::vector<std::string>& text) {
+    renderer::Overlay overlay;
+    for (const auto& p : camera) overlay.trajectory_world.push_back(p.T_world_x.translation());
+    overlay.T_world_camera = T_world_camera_last;
+    overlay.camera_intrinsics = intrinsics;
+    overlay.text_lines = text;
+    return overlay;
+  };
+  const auto model_views = [&] {
+    return std::vector<renderer::ModelView>{
+        {slam.model().surfels(), slam.model().count(), 0, slam.model().T_world_model}};
+  };
+  std::string status;
+  const auto show = [&] {
+    const auto views = model_views();
+    viewer->frame(slam.stream(), *view_renderer, views, make_overlay({}), status);
+  };
   while (true) {
+    if (viewer) {
+      // Space pauses, N runs one frame, Q quits; the window stays live while paused.
+      while (viewer->state().paused && !viewer->state().step_requested && !viewer->state().quit_requested &&
+             viewer->poll())
+        show();
+      if (viewer->state().quit_requested || !viewer->poll()) break;
+      viewer->state().step_requested = false;
+    }
     std::optional<Frame> frame;
     {
       ScopedStage s(times, "read");
@@ -84,6 +139,7 @@ void run(const RunOptions& o) {
     const slam::FrameResult r = slam.process(depth.ptr<float>(), rgb.data);
     for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
     camera.push_back({frame->timestamp_s, r.T_world_camera});
+    T_world_camera_last = r.T_world_camera;
     if (r.tracking.failed) {
       failed_frames.push_back(frame->index);
       std::printf("%sframe %d: tracking failed (%s); pose not updated, frame not fused\n", tty ? "\n" : "",
@@ -107,6 +163,13 @@ void run(const RunOptions& o) {
                 r.fusion.surfels_after_fusion - r.fusion.surfels_after_cleanup, 100.0 * r.tracking.inlier_ratio,
                 tty ? "   " : "\n");
     std::fflush(stdout);
+    if (viewer) {
+      char line[160];
+      std::snprintf(line, sizeof line, "frame %d  %.1f fps  models 1  surfels %u", frames, frames / elapsed,
+                    slam.model().count());
+      status = line;
+      show();
+    }
   }
   if (tty) std::printf("\n");
   if (frames == 0) throw Error("input " + o.input + " has no frames");
@@ -115,6 +178,16 @@ void run(const RunOptions& o) {
     throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors (see above)");
 
   write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera);
+  if (!o.screenshot.empty()) {
+    const auto views = model_views();
+    const renderer::VirtualCamera view =
+        viewer ? viewer->camera(T_world_camera_last) : overview_camera(intrinsics, T_world_camera_last);
+    renderer::Image image = view_renderer->render(slam.stream(), views, view, renderer::RenderParams{});
+    char line[160];
+    std::snprintf(line, sizeof line, "frame %d  models 1  surfels %u", frames, slam.model().count());
+    renderer::draw_overlay(image, view, make_overlay({line}));
+    renderer::write_png(image, o.screenshot);
+  }
   SurfelCloud background;
   background.model_id = 0;
   background.class_name = "background";
@@ -149,7 +222,8 @@ void add_run(CLI::App& app) {
   cmd->add_option("--input", o->input,
                   "SOURCE: synthetic[:SCENE] (default), tum:PATH, klg:PATH, oni:PATH, openni2[:URI], images:PATH");
   cmd->add_option("--output", o->output, "Output folder (default ./cofusion-out)");
-  cmd->add_flag("--headless", o->headless, "Run without a window");
+  cmd->add_flag("--headless", o->headless, "Run without a window (the viewer needs a display)");
+  cmd->add_option("--screenshot", o->screenshot, "Write the final view as PNG (from the window, or offscreen)");
   cmd->add_option("--max-frames", o->max_frames, "Stop after N frames")->check(CLI::PositiveNumber);
   cmd->add_option("--config", o->config_file, "JSON file of pipeline parameters")->check(CLI::ExistingFile);
   cmd->add_flag("--save-segmentation", o->save_segmentation, "Write per-frame label images to segmentation/");

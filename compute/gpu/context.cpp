@@ -87,7 +87,8 @@ DeviceInfo describe_device(const vk::raii::PhysicalDevice& pd, uint32_t index) {
   return info;
 }
 
-vk::raii::Instance make_instance(const vk::raii::Context& loader, bool validation, bool* debug_utils) {
+vk::raii::Instance make_instance(const vk::raii::Context& loader, bool validation, bool* debug_utils,
+                                 const std::vector<std::string>& extra_extensions = {}) {
   const auto layers = loader.enumerateInstanceLayerProperties();
   const auto extensions = loader.enumerateInstanceExtensionProperties();
   std::vector<const char*> enabled_layers;
@@ -103,6 +104,10 @@ vk::raii::Instance make_instance(const vk::raii::Context& loader, bool validatio
   }
   *debug_utils = has_extension(extensions, VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   if (*debug_utils) enabled_extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  for (const auto& name : extra_extensions) {
+    if (!has_extension(extensions, name.c_str())) throw Error("Vulkan instance extension " + name + " is not available");
+    enabled_extensions.push_back(name.c_str());
+  }
 
   vk::ApplicationInfo app{.pApplicationName = "cofusion",
                           .applicationVersion = 1,
@@ -130,7 +135,7 @@ std::vector<DeviceInfo> Context::list_devices() {
 }
 
 Context::Context(const ContextOptions& options) : options_(options) {
-  instance_ = make_instance(loader_, options_.validation, &debug_utils_);
+  instance_ = make_instance(loader_, options_.validation, &debug_utils_, options_.instance_extensions);
   if (options_.validation && debug_utils_) {
     vk::DebugUtilsMessengerCreateInfoEXT info{
         .messageSeverity = vk::DebugUtilsMessageSeverityFlagBitsEXT::eWarning |
@@ -256,6 +261,11 @@ Context::Context(const ContextOptions& options) : options_(options) {
 
   std::vector<const char*> device_extensions{VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
   if (has_float_atomics) device_extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
+  for (const auto& name : options_.device_extensions) {
+    if (!has_extension(extensions, name.c_str()))
+      throw Error("Vulkan device extension " + name + " is not supported by " + info_.name);
+    device_extensions.push_back(name.c_str());
+  }
   vk::DeviceCreateInfo device_info{.pNext = &enable10,
                                    .queueCreateInfoCount = 1,
                                    .pQueueCreateInfos = &queue_info,

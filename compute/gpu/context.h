@@ -32,6 +32,11 @@ struct ContextOptions {
   std::function<void(const std::string& message)> on_validation_error;
   // Print validation warnings too (errors are always printed).
   bool print_validation_warnings = true;
+  // Extra extensions, for presentation (the viewer window): instance extensions such as those
+  // glfwGetRequiredInstanceExtensions names, device extensions such as VK_KHR_swapchain. A missing
+  // one is an error naming it.
+  std::vector<std::string> instance_extensions;
+  std::vector<std::string> device_extensions;
 };
 
 struct DeviceInfo {
@@ -76,6 +81,7 @@ class Context {
   // Every physical device the loader reports, with why a device cannot be used.
   static std::vector<DeviceInfo> list_devices();
 
+  const vk::raii::Instance& instance() const { return instance_; }
   const vk::raii::Device& device() const { return device_; }
   const vk::raii::PhysicalDevice& physical_device() const { return physical_device_; }
   const DeviceInfo& info() const { return info_; }

@@ -24,4 +24,9 @@ static_assert(sizeof(IcpRgbReduceParams) == 88 && offsetof(IcpRgbReduceParams, f
 static_assert(ICP_RGB_OFFSET_VALID >= ICP_RGB_OFFSET_ICP + ICP_RGB_TERM_VALUES && ICP_RGB_OFFSET_RGB > ICP_RGB_OFFSET_VALID &&
               ICP_RGB_OFFSET_RGB + ICP_RGB_TERM_VALUES <= ICP_RGB_PARTIAL_STRIDE && ICP_RGB_PARTIAL_STRIDE == 64);
 static_assert(ICP_RGB_GROUP_SIZE / ICP_RGB_MAX_SUBGROUPS == 4);
+// renderer/ (view_splat.comp, view_resolve.comp)
+static_assert(sizeof(ViewSplatParams) == 96 && offsetof(ViewSplatParams, fx) == 48 &&
+              offsetof(ViewSplatParams, index_base) == 76 && offsetof(ViewSplatParams, near_m) == 88);
+static_assert(sizeof(ViewResolveParams) == 80 && offsetof(ViewResolveParams, width) == 48 &&
+              offsetof(ViewResolveParams, ambient) == 76);
 }  // namespace cofusion::gpu_layout

@@ -214,6 +214,42 @@ struct IcpRgbReduceParams {
   uint use_photometric;        // 0: the photometric sums stay zero
 };
 
+
+// ---- view_splat.comp / view_resolve.comp: the viewer's offscreen renderer (renderer/) ------
+// Several models share one depth/index grid: model k's surfel i gets the key index
+// index_base_k + i, so the winner of a pixel names its model. view_resolve runs once per model
+// and shades only the pixels that model won. Models are only read.
+#define VIEW_SPLAT_BINDING_SURFELS 0
+#define VIEW_SPLAT_BINDING_DEPTH_INDEX 1  // uint64 per pixel (hi = depth bits, lo = key index); all ones = empty
+#define VIEW_RESOLVE_BINDING_SURFELS 0
+#define VIEW_RESOLVE_BINDING_DEPTH_INDEX 1
+#define VIEW_RESOLVE_BINDING_IMAGE 2      // uint[] RGBA8 per pixel, R in the low byte
+#define VIEW_COLOUR_RGB 0u
+#define VIEW_COLOUR_LABEL 1u
+#define VIEW_COLOUR_NORMAL 2u
+#define VIEW_COLOUR_CONFIDENCE 3u
+struct ViewSplatParams {
+  float T_view_model[12];   // row-major 3x4: view-frame point = T * model-frame point
+  float fx, fy, cx, cy;     // virtual camera, pixels
+  uint width, height;       // image size
+  uint surfel_count;
+  uint index_base;          // first key index of this model
+  float min_confidence;     // surfels below are not drawn
+  uint max_footprint_px;    // half-size cap of the square a surfel covers
+  float near_m;             // surfels nearer than this are clipped
+  uint pad0;
+};
+struct ViewResolveParams {
+  float T_view_model[12];
+  uint width, height;
+  uint surfel_count;
+  uint index_base;
+  uint colour_mode;         // VIEW_COLOUR_*
+  uint label_rgba8;         // the model's palette colour (label mode)
+  float confidence_max;     // confidence mapped to the top of the colour map
+  float ambient;            // shading: ambient + (1 - ambient) * |cos(normal, view ray)|
+};
+
 #ifdef __cplusplus
 }  // namespace cofusion::gpu_layout
 #endif

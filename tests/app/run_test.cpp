@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "eval/trajectory_metrics.h"
 #include "io/trajectory.h"
@@ -127,6 +129,43 @@ TEST(RunCommand, BadConfigNamesFileAndKey) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("photometric_wieght"));
   EXPECT_THAT(r.output, HasSubstr("config.json"));
+}
+
+// --screenshot offscreen (headless) and from the window under a virtual X server: a PNG of the
+// final view, showing the model (not just the background colour).
+void expect_screenshot(const fs::path& png) {
+  const cv::Mat image = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty()) << png;
+  cv::Mat grey;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(grey, mean, stddev);
+  EXPECT_GT(stddev[0], 20.0) << "screenshot looks empty";
+}
+
+TEST(RunCommand, HeadlessScreenshotShowsTheModel) {
+  const fs::path out = fresh_temp_dir();
+  const Result r = run_cofusion("run --headless --max-frames 5 --output " + out.string() + " --screenshot " +
+                                (out / "view.png").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  expect_screenshot(out / "view.png");
+}
+
+TEST(RunCommand, ViewerWindowRunsUnderXvfbAndTakesAScreenshot) {
+  if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "xvfb-run not installed (Debian: xvfb)";
+  }
+  const fs::path out = fresh_temp_dir();
+  const std::string command = "xvfb-run -a " + cofusion_exe().string() + " run --max-frames 5 --output " + out.string() +
+                              " --screenshot " + (out / "view.png").string() + " 2>&1";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  std::array<char, 4096> buffer{};
+  while (size_t n = std::fread(buffer.data(), 1, buffer.size(), pipe)) output.append(buffer.data(), n);
+  const int status = ::pclose(pipe);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << output;
+  expect_screenshot(out / "view.png");
 }
 
 TEST(RunCommand, EverySubcommandHasHelp) {
