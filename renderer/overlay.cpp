@@ -144,6 +144,24 @@ void draw_overlay(Image& image, const VirtualCamera& camera, const Overlay& over
       draw_world_line(image, camera, c[k], c[(k + 1) % 4], overlay.frustum_rgba8);
     }
   }
+  // Insets last but text, so lines never cross them.
+  int left = 4;
+  for (const auto& inset : overlay.insets) {
+    if (inset.image.width <= 0 || inset.image.height <= 0) continue;
+    const int h = std::min(overlay.inset_height_px, image.height - 16);
+    if (h <= 0) break;
+    const int w = std::max(1, inset.image.width * h / inset.image.height);
+    const int top = image.height - h - 4;
+    for (int y = -1; y <= h; ++y)
+      for (int x = -1; x <= w; ++x) {
+        if (!image.contains(left + x, top + y)) continue;
+        const bool border = x < 0 || y < 0 || x == w || y == h;
+        image.at(left + x, top + y) =
+            border ? 0xFFFFFFFFu : inset.image.at(x * inset.image.width / w, y * inset.image.height / h);
+      }
+    draw_text(image, left, top - kLineHeightPx, inset.label, overlay.text_rgba8, 1);
+    left += w + 8;
+  }
   const int scale = std::max(1, overlay.text_scale);
   for (size_t i = 0; i < overlay.text_lines.size(); ++i)
     draw_text(image, 4 * scale, 4 * scale + static_cast<int>(i) * kLineHeightPx * scale, overlay.text_lines[i],

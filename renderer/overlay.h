@@ -25,6 +25,13 @@ struct ModelBox {
 // The bounding box of a cloud's surfel centres (empty when it has none).
 ModelBox bounding_box(const SurfelCloud& cloud);
 
+// A small picture pasted along the bottom edge of the view (the live RGB, depth, segmentation),
+// scaled by nearest neighbour to Overlay::inset_height_px, with a label above it.
+struct Inset {
+  Image image;
+  std::string label;
+};
+
 struct Overlay {
   std::vector<Eigen::Vector3d> trajectory_world;  // camera positions, oldest first
   uint32_t trajectory_rgba8 = 0xFF00E0FFu;        // yellow
@@ -37,6 +44,8 @@ struct Overlay {
   std::vector<std::string> text_lines;  // drawn from the top-left, one per line
   uint32_t text_rgba8 = 0xFFFFFFFFu;
   int text_scale = 1;                   // pixels per font pixel
+  std::vector<Inset> insets;            // left to right along the bottom edge
+  int inset_height_px = 120;
 };
 
 // Draws every part of `overlay` seen by `camera` into `image` (the image of that camera).

@@ -36,6 +36,26 @@ struct RunOptions {
   GpuCliOptions gpu;
 };
 
+// The live frame as the viewer's insets: colour, depth (grey, near = bright, up to 5 m) and the
+// segmentation (model label colours; black = no depth), subsampled to a quarter size.
+std::vector<renderer::Inset> live_insets(const Frame& frame) {
+  constexpr int kStep = 4;
+  const int w = std::max(1, frame.rgb.cols / kStep), h = std::max(1, frame.rgb.rows / kStep);
+  renderer::Inset rgb{renderer::Image(w, h), "live rgb"}, depth{renderer::Image(w, h), "depth"},
+      labels{renderer::Image(w, h), "segmentation"};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const cv::Vec3b c = frame.rgb.at<cv::Vec3b>(y * kStep, x * kStep);
+      rgb.image.at(x, y) = renderer::rgba8(c[0], c[1], c[2]);
+      const float d = frame.depth_m.at<float>(y * kStep, x * kStep);
+      const bool valid = d > 0.0f;
+      const auto g = static_cast<uint32_t>(valid ? std::clamp(255.0f * (1.0f - d / 5.0f), 30.0f, 255.0f) : 0.0f);
+      depth.image.at(x, y) = renderer::rgba8(g, g, g);
+      labels.image.at(x, y) = valid ? renderer::model_colour(0) : renderer::rgba8(0, 0, 0);
+    }
+  return {rgb, depth, labels};
+}
+
 // The final view for --screenshot without a window: from behind and above the last camera pose,
 // looking where it looked, with the trajectory, the camera frustum and model boxes drawn in.
 renderer::VirtualCamera overview_camera(const Intrinsics& intrinsics, const Pose& T_world_camera) {
@@ -101,8 +121,10 @@ void run(const RunOptions& o) {
   int frames = 0;
   const bool tty = ::isatty(STDOUT_FILENO);
   Pose T_world_camera_last = Pose::Identity();
+  std::vector<renderer::Inset> insets;
   const auto make_overlay = [&](const std::vector<std::string>& text) {
     renderer::Overlay overlay;
+    overlay.insets = insets;
     for (const auto& p : camera) overlay.trajectory_world.push_back(p.T_world_x.translation());
     overlay.T_world_camera = T_world_camera_last;
     overlay.camera_intrinsics = intrinsics;
@@ -163,6 +185,7 @@ void run(const RunOptions& o) {
                 r.fusion.surfels_after_fusion - r.fusion.surfels_after_cleanup, 100.0 * r.tracking.inlier_ratio,
                 tty ? "   " : "\n");
     std::fflush(stdout);
+    if (viewer || !o.screenshot.empty()) insets = live_insets(*frame);
     if (viewer) {
       char line[160];
       std::snprintf(line, sizeof line, "frame %d  %.1f fps  models 1  surfels %u", frames, frames / elapsed,
@@ -178,6 +201,12 @@ void run(const RunOptions& o) {
     throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors (see above)");
 
   write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera);
+  SurfelCloud background;
+  background.model_id = 0;
+  background.class_name = "background";
+  background.T_world_model = slam.model().T_world_model;
+  background.surfels = slam.model().download(slam.stream());
+  write_models({background}, camera, out_dir);
   if (!o.screenshot.empty()) {
     const auto views = model_views();
     const renderer::VirtualCamera view =
@@ -185,15 +214,11 @@ void run(const RunOptions& o) {
     renderer::Image image = view_renderer->render(slam.stream(), views, view, renderer::RenderParams{});
     char line[160];
     std::snprintf(line, sizeof line, "frame %d  models 1  surfels %u", frames, slam.model().count());
-    renderer::draw_overlay(image, view, make_overlay({line}));
+    renderer::Overlay overlay = make_overlay({line});
+    overlay.boxes = {renderer::bounding_box(background)};
+    renderer::draw_overlay(image, view, overlay);
     renderer::write_png(image, o.screenshot);
   }
-  SurfelCloud background;
-  background.model_id = 0;
-  background.class_name = "background";
-  background.T_world_model = slam.model().T_world_model;
-  background.surfels = slam.model().download(slam.stream());
-  write_models({background}, camera, out_dir);
 
   nlohmann::ordered_json summary;
   summary["frames"] = frames;

@@ -92,6 +92,23 @@ TEST(Overlay, DrawsTrajectoryBoxesFrustumAndText) {
   EXPECT_TRUE(renderer::bounding_box(SurfelCloud{}).bounds_model.isEmpty());
 }
 
+TEST(Overlay, InsetsArePastedScaledAlongTheBottom) {
+  Image view(320, 240, 0xFF000000u);
+  Image inset(64, 48, 0xFF0000FFu);  // red
+  inset.at(63, 47) = 0xFF00FF00u;    // green bottom-right pixel
+  renderer::Overlay overlay;
+  overlay.insets = {{inset, "rgb"}, {inset, "depth"}};
+  overlay.inset_height_px = 96;
+  renderer::draw_overlay(view, renderer::VirtualCamera{}, overlay);
+  // First inset: 128x96 at x = 4, bottom at 240 - 4; scaled by 2.
+  EXPECT_EQ(view.at(4 + 10, 240 - 4 - 96 + 10), 0xFF0000FFu);
+  EXPECT_EQ(view.at(4 + 127, 240 - 4 - 1), 0xFF00FF00u);
+  EXPECT_EQ(view.at(3, 240 - 4 - 50), 0xFFFFFFFFu) << "border";
+  // Second inset starts after the first and a gap.
+  EXPECT_EQ(view.at(4 + 128 + 8 + 10, 240 - 4 - 50), 0xFF0000FFu);
+  EXPECT_EQ(view.at(300, 20), 0xFF000000u) << "nothing else drawn";
+}
+
 TEST(Screenshot, PngRoundTripAndUnwritablePath) {
   Image img(7, 5, kBlack);
   img.at(3, 2) = renderer::rgba8(10, 200, 30);
