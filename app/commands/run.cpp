@@ -138,7 +138,14 @@ void run(const RunOptions& o) {
   std::string status;
   const auto show = [&] {
     const auto views = model_views();
-    viewer->frame(slam.stream(), *view_renderer, views, make_overlay({}), status);
+    renderer::Overlay overlay = make_overlay({});
+    // The box needs the surfel centres on the host: a read-back of the model buffer (a few ms).
+    SurfelCloud cloud;
+    cloud.model_id = 0;
+    cloud.T_world_model = slam.model().T_world_model;
+    cloud.surfels = slam.model().download(slam.stream());
+    overlay.boxes = {renderer::bounding_box(cloud)};
+    viewer->frame(slam.stream(), *view_renderer, views, overlay, status);
   };
   while (true) {
     if (viewer) {
