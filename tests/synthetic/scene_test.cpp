@@ -30,14 +30,7 @@ json minimal_scene() {
   })");
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 // Writes `j` to a .json file and loads it by path; returns the error message.
 std::string load_error(const json& j, const std::string& file_name = "bad_scene.json") {
