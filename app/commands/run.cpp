@@ -121,10 +121,10 @@ void run(const RunOptions& o) {
   int frames = 0;
   const bool tty = ::isatty(STDOUT_FILENO);
   Pose T_world_camera_last = Pose::Identity();
-  std::vector<renderer::Inset> insets;
+  std::optional<Frame> last_frame;  // shares the pixels; insets are made only when drawn
   const auto make_overlay = [&](const std::vector<std::string>& text) {
     renderer::Overlay overlay;
-    overlay.insets = insets;
+    if (last_frame) overlay.insets = live_insets(*last_frame);
     for (const auto& p : camera) overlay.trajectory_world.push_back(p.T_world_x.translation());
     overlay.T_world_camera = T_world_camera_last;
     overlay.camera_intrinsics = intrinsics;
@@ -192,7 +192,7 @@ void run(const RunOptions& o) {
                 r.fusion.surfels_after_fusion - r.fusion.surfels_after_cleanup, 100.0 * r.tracking.inlier_ratio,
                 tty ? "   " : "\n");
     std::fflush(stdout);
-    if (viewer || !o.screenshot.empty()) insets = live_insets(*frame);
+    if (viewer || !o.screenshot.empty()) last_frame = *frame;
     if (viewer) {
       char line[160];
       std::snprintf(line, sizeof line, "frame %d  %.1f fps  models 1  surfels %u", frames, frames / elapsed,
