@@ -7,7 +7,10 @@
 #include "commands/stage_timer.h"
 #include "commands/sources.h"
 #include "kernels/preprocess.h"
+#include "commands/config.h"
+#include "slam/co_fusion.h"
 #include "slam/dense_slam.h"
+#include <map>
 #include <opencv2/imgproc.hpp>
 
 namespace cofusion::commands {
@@ -21,6 +24,10 @@ struct BenchOptions {
   int frames = 50;
   bool kernels = true;   // per-kernel figures
   bool pipeline = true;  // whole-frame figures
+  // Multi-object figures: scenes run through the whole Co-Fusion pipeline, frames grouped by
+  // the number of active models.
+  std::vector<std::string> model_inputs = {"synthetic:static_room", "synthetic:two_objects", "synthetic:five_objects"};
+  bool models = true;
 };
 
 // Halves a frame (and its intrinsics) for the 320x240 figures: depth by nearest neighbour, so
@@ -66,6 +73,47 @@ void bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const s
   for (double ms : times.samples("whole frame")) total += ms;
   std::printf("frames per second: %.2f (median frame), %.2f (mean frame)\n", 1000.0 / times.median("whole frame"),
               1000.0 * double(times.samples("whole frame").size()) / total);
+}
+
+// Co-Fusion over a scene (motion segmentation, lifecycle, one model per moving object): every
+// frame is timed and grouped by the number of models tracked in it, so the figures read as "fps
+// with N models". Superpixels run on the CPU job system while the GPU tracks; the overlap column
+// says how much of that time was hidden behind GPU work.
+void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
+  SourceOptions source_options;
+  source_options.max_frames = max_frames;
+  auto source = open_source(input, source_options);
+  std::vector<Frame> frames;
+  while (auto frame = source->next()) {
+    if (!frame->depth_m.isContinuous()) frame->depth_m = frame->depth_m.clone();
+    if (!frame->rgb.isContinuous()) frame->rgb = frame->rgb.clone();
+    frames.push_back(std::move(*frame));
+  }
+  if (frames.size() < 4) throw Error("bench: need at least 4 frames of " + input);
+  const Intrinsics k = frames[0].intrinsics;
+  slam::CoFusion slam(ctx, k, PipelineConfig{}.cofusion());
+  std::map<size_t, StageTimes> by_models;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto r = slam.process(frames[i].depth_m.ptr<float>(), frames[i].rgb.data);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (i < 2) continue;  // start-up: pipeline compilation, first fusion
+    size_t tracked = 0;
+    for (const auto& m : r.active) tracked += m.tracked;
+    StageTimes& times = by_models[tracked];
+    for (const auto& [stage, stage_ms] : r.stage_ms) times.add(stage, stage_ms);
+    times.add("  superpixels (CPU job)", r.superpixels_ms);
+    times.add("  of which overlapped GPU work", r.superpixels_overlap_ms);
+    times.add("  segmentation after tracking", r.segment_ms);
+    times.add("whole frame", ms);
+  }
+  std::printf("\nmulti-object pipeline on %s (%dx%d, %zu frames, first 2 not counted)\n", source->describe().c_str(),
+              k.width, k.height, frames.size());
+  for (const auto& [models, times] : by_models) {
+    std::printf("\n%zu active model%s, %zu frames: %.2f frames per second (median frame)\n", models,
+                models == 1 ? "" : "s", times.samples("whole frame").size(), 1000.0 / times.median("whole frame"));
+    print_table(times);
+  }
 }
 
 // Times `record` submitted alone, `iterations` times, after `warmup` untimed runs (the first
@@ -146,6 +194,8 @@ void add_bench(CLI::App& app) {
   cmd->add_option("--frames", options->frames, "How many frames of --input to run")->check(CLI::PositiveNumber);
   cmd->add_flag("!--no-kernels", options->kernels, "Skip the per-kernel figures");
   cmd->add_flag("!--no-pipeline", options->pipeline, "Skip the whole-pipeline figures");
+  cmd->add_option("--models-input", options->model_inputs, "Scenes for the multi-object figures (SOURCEs as for run)");
+  cmd->add_flag("!--no-models", options->models, "Skip the multi-object figures");
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
     gpu::Context ctx(options->gpu.context_options());
@@ -174,6 +224,8 @@ void add_bench(CLI::App& app) {
       bench_pipeline(ctx, full, "full resolution");
       bench_pipeline(ctx, half, "half resolution");
     }
+    if (options->models)
+      for (const auto& input : options->model_inputs) bench_models(ctx, input, options->frames);
     if (ctx.validation_error_count() > 0) throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors");
   });
 }

@@ -5,14 +5,22 @@
 // Unknown keys and wrong types are errors naming the file and the key.
 #include <filesystem>
 
-#include "slam/dense_slam.h"
+#include "slam/co_fusion.h"
 
 namespace cofusion::commands {
 
 // Groups: "preprocess" (kernels::PreprocessParams), "tracker" (slam::TrackerParams), "fusion"
-// (slam::FusionParams), "slam" (slam::SlamParams' own members).
+// (slam::FusionParams), "slam" (slam::SlamParams' own members), "segmentation"
+// (segmentation::MotionSegmentationParams, SLIC under "segmentation": {"slic": {...}}), "costs"
+// (slam::MotionCostParams), "lifecycle" (slam::LifecycleParams), "motion_segmentation" (bool).
 struct PipelineConfig {
   slam::SlamParams slam;
+  segmentation::MotionSegmentationParams segmentation;
+  slam::MotionCostParams costs;
+  slam::LifecycleParams lifecycle;
+  bool motion_segmentation = true;
+
+  slam::CoFusionParams cofusion() const { return {slam, segmentation, costs, lifecycle, motion_segmentation}; }
 };
 
 PipelineConfig load_config(const std::filesystem::path& path);

@@ -17,7 +17,7 @@
 #include "io/trajectory.h"
 #include "renderer/overlay.h"
 #include "renderer/viewer.h"
-#include "slam/dense_slam.h"
+#include "slam/co_fusion.h"
 
 namespace cofusion::commands {
 namespace {
@@ -37,8 +37,8 @@ struct RunOptions {
 };
 
 // The live frame as the viewer's insets: colour, depth (grey, near = bright, up to 5 m) and the
-// segmentation (model label colours; black = no depth), subsampled to a quarter size.
-std::vector<renderer::Inset> live_insets(const Frame& frame) {
+// segmentation (model label colours; black = no model), subsampled to a quarter size.
+std::vector<renderer::Inset> live_insets(const Frame& frame, const std::vector<uint16_t>& model_ids) {
   constexpr int kStep = 4;
   const int w = std::max(1, frame.rgb.cols / kStep), h = std::max(1, frame.rgb.rows / kStep);
   renderer::Inset rgb{renderer::Image(w, h), "live rgb"}, depth{renderer::Image(w, h), "depth"},
@@ -51,7 +51,9 @@ std::vector<renderer::Inset> live_insets(const Frame& frame) {
       const bool valid = d > 0.0f;
       const auto g = static_cast<uint32_t>(valid ? std::clamp(255.0f * (1.0f - d / 5.0f), 30.0f, 255.0f) : 0.0f);
       depth.image.at(x, y) = renderer::rgba8(g, g, g);
-      labels.image.at(x, y) = valid ? renderer::model_colour(0) : renderer::rgba8(0, 0, 0);
+      const size_t i = size_t(y * kStep) * size_t(frame.rgb.cols) + size_t(x * kStep);
+      const int id = i < model_ids.size() ? model_ids[i] : (valid ? 0 : 0xFFFF);
+      labels.image.at(x, y) = id != 0xFFFF ? renderer::model_colour(id) : renderer::rgba8(0, 0, 0);
     }
   return {rgb, depth, labels};
 }
@@ -113,38 +115,60 @@ void run(const RunOptions& o) {
   if (!o.headless || !o.screenshot.empty()) view_renderer = std::make_unique<renderer::ViewRenderer>(ctx);
   if (!o.headless) viewer = std::make_unique<renderer::Viewer>(ctx);
 
-  slam::DenseSlam slam(ctx, intrinsics, config.slam);
+  slam::CoFusion slam(ctx, intrinsics, config.cofusion());
   StageTimes times;
   Trajectory camera;
+  std::vector<double> timestamps;  // per processed frame, for the model trajectories
   std::vector<int> failed_frames;
+  std::vector<std::string> events;
   const auto start = std::chrono::steady_clock::now();
   int frames = 0;
   const bool tty = ::isatty(STDOUT_FILENO);
   Pose T_world_camera_last = Pose::Identity();
   std::optional<Frame> last_frame;  // shares the pixels; insets are made only when drawn
+  std::vector<uint16_t> last_labels;
   const auto make_overlay = [&](const std::vector<std::string>& text) {
     renderer::Overlay overlay;
-    if (last_frame) overlay.insets = live_insets(*last_frame);
+    if (last_frame) overlay.insets = live_insets(*last_frame, last_labels);
     for (const auto& p : camera) overlay.trajectory_world.push_back(p.T_world_x.translation());
     overlay.T_world_camera = T_world_camera_last;
     overlay.camera_intrinsics = intrinsics;
     overlay.text_lines = text;
     return overlay;
   };
+  // Active models are drawn; inactive ones are out of view by definition.
   const auto model_views = [&] {
-    return std::vector<renderer::ModelView>{
-        {slam.model().surfels(), slam.model().count(), 0, slam.model().T_world_model}};
+    std::vector<renderer::ModelView> views;
+    for (const auto& m : slam.models())
+      if (m.state == slam::ModelState::kActive)
+        views.push_back({m.model->surfels(), m.model->count(), m.id, m.model->T_world_model});
+    return views;
+  };
+  const auto clouds = [&](bool active_only) {
+    std::vector<SurfelCloud> out;
+    for (const auto& m : slam.models()) {
+      if (active_only && m.state != slam::ModelState::kActive) continue;
+      SurfelCloud cloud;
+      cloud.model_id = m.id;
+      cloud.class_name = m.id == 0 ? "background" : "object";
+      cloud.T_world_model = m.model->T_world_model;
+      cloud.surfels = m.model->download(slam.stream());
+      out.push_back(std::move(cloud));
+    }
+    return out;
+  };
+  const auto boxes = [](const std::vector<SurfelCloud>& models) {
+    std::vector<renderer::ModelBox> out;
+    for (const auto& cloud : models)
+      if (!cloud.surfels.empty()) out.push_back(renderer::bounding_box(cloud));
+    return out;
   };
   std::string status;
   const auto show = [&] {
     const auto views = model_views();
     renderer::Overlay overlay = make_overlay({});
-    // The box needs the surfel centres on the host: a read-back of the model buffer (a few ms).
-    SurfelCloud cloud;
-    cloud.model_id = 0;
-    cloud.T_world_model = slam.model().T_world_model;
-    cloud.surfels = slam.model().download(slam.stream());
-    overlay.boxes = {renderer::bounding_box(cloud)};
+    // The boxes need the surfel centres on the host: a read-back of the models (a few ms).
+    overlay.boxes = boxes(clouds(true));
     viewer->frame(slam.stream(), *view_renderer, views, overlay, status);
   };
   while (true) {
@@ -165,19 +189,27 @@ void run(const RunOptions& o) {
     check_frame(*frame, intrinsics);
     const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
     const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
-    const slam::FrameResult r = slam.process(depth.ptr<float>(), rgb.data);
+    slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data);
     for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
+    if (r.frame > 0 && config.motion_segmentation) {
+      times.add("superpixels (CPU)", r.superpixels_ms);
+      times.add("superpixels overlapped with GPU", r.superpixels_overlap_ms);
+    }
     camera.push_back({frame->timestamp_s, r.T_world_camera});
+    timestamps.push_back(frame->timestamp_s);
     T_world_camera_last = r.T_world_camera;
-    if (r.tracking.failed) {
+    if (r.camera_tracking.failed) {
       failed_frames.push_back(frame->index);
-      std::printf("%sframe %d: tracking failed (%s); pose not updated, frame not fused\n", tty ? "\n" : "",
-                  frame->index, r.tracking.failure_reason.c_str());
+      std::printf("%sframe %d: camera tracking failed (%s); pose not updated, frame not fused\n", tty ? "\n" : "",
+                  frame->index, r.camera_tracking.failure_reason.c_str());
+    }
+    for (const auto& e : r.events) {
+      std::printf("%s%s\n", tty ? "\n" : "", e.c_str());
+      events.push_back(e);
     }
     if (o.save_segmentation) {
-      // One model: every pixel with depth belongs to the background model (label 0); 65535 = none.
-      cv::Mat labels(depth.rows, depth.cols, CV_16UC1, cv::Scalar(65535));
-      labels.setTo(0, depth > 0.0f);
+      // Model id per pixel (0 = background), 65535 = no model (no depth or unassigned).
+      cv::Mat labels(depth.rows, depth.cols, CV_16UC1, r.labels.data());
       char name[32];
       std::snprintf(name, sizeof name, "%06d.png", frame->index);
       write_atomically(out_dir / "segmentation" / name, [&](const fs::path& tmp) {
@@ -186,17 +218,20 @@ void run(const RunOptions& o) {
       });
     }
     ++frames;
+    unsigned surfels = 0;
+    for (const auto& m : r.active) surfels += m.surfels;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf("%sframe %d  %.1f fps  surfels %u (+%u -%u)  inliers %.0f%%%s", tty ? "\r" : "", frames,
-                frames / elapsed, slam.model().count(), r.fusion.surfels_after_fusion - r.fusion.surfels_before,
-                r.fusion.surfels_after_fusion - r.fusion.surfels_after_cleanup, 100.0 * r.tracking.inlier_ratio,
-                tty ? "   " : "\n");
+    std::printf("%sframe %d  %.1f fps  models %zu  surfels %u  camera inliers %.0f%%%s", tty ? "\r" : "", frames,
+                frames / elapsed, r.active.size(), surfels, 100.0 * r.camera_tracking.inlier_ratio, tty ? "   " : "\n");
     std::fflush(stdout);
-    if (viewer || !o.screenshot.empty()) last_frame = *frame;
+    if (viewer || !o.screenshot.empty()) {
+      last_frame = *frame;
+      last_labels = std::move(r.labels);
+    }
     if (viewer) {
       char line[160];
-      std::snprintf(line, sizeof line, "frame %d  %.1f fps  models 1  surfels %u", frames, frames / elapsed,
-                    slam.model().count());
+      std::snprintf(line, sizeof line, "frame %d  %.1f fps  models %zu  surfels %u", frames, frames / elapsed,
+                    r.active.size(), surfels);
       status = line;
       show();
     }
@@ -208,21 +243,27 @@ void run(const RunOptions& o) {
     throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors (see above)");
 
   write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera);
-  SurfelCloud background;
-  background.model_id = 0;
-  background.class_name = "background";
-  background.T_world_model = slam.model().T_world_model;
-  background.surfels = slam.model().download(slam.stream());
-  write_models({background}, camera, out_dir);
+  const std::vector<slam::ModelSnapshot> snapshots = slam.models();
+  for (const auto& m : snapshots) {
+    if (m.id == 0) continue;
+    Trajectory trajectory;
+    for (const auto& [frame_index, T_world_model] : m.trajectory)
+      trajectory.push_back({timestamps.at(static_cast<size_t>(frame_index)), T_world_model});
+    write_tum_trajectory(out_dir / "trajectories" / ("model-" + std::to_string(m.id) + ".txt"), trajectory);
+  }
+  const std::vector<SurfelCloud> all_models = clouds(false);
+  write_models(all_models, camera, out_dir);
+  size_t total_surfels = 0;
+  for (const auto& cloud : all_models) total_surfels += cloud.surfels.size();
   if (!o.screenshot.empty()) {
     const auto views = model_views();
     const renderer::VirtualCamera view =
         viewer ? viewer->camera(T_world_camera_last) : overview_camera(intrinsics, T_world_camera_last);
     renderer::Image image = view_renderer->render(slam.stream(), views, view, renderer::RenderParams{});
     char line[160];
-    std::snprintf(line, sizeof line, "frame %d  models 1  surfels %u", frames, slam.model().count());
+    std::snprintf(line, sizeof line, "frame %d  models %zu  surfels %zu", frames, views.size(), total_surfels);
     renderer::Overlay overlay = make_overlay({line});
-    overlay.boxes = {renderer::bounding_box(background)};
+    overlay.boxes = boxes(clouds(true));
     renderer::draw_overlay(image, view, overlay);
     renderer::write_png(image, o.screenshot);
   }
@@ -234,16 +275,20 @@ void run(const RunOptions& o) {
   summary["input"] = source->describe();
   for (const auto& stage : times.stages()) summary["stages_ms"][stage] = times.mean(stage);
   summary["tracking_failures"] = failed_frames;
-  summary["models"] = nlohmann::json::array(
-      {{{"id", 0},
-        {"state", "active"},
-        {"surfels", background.surfels.size()},
-        {"first_frame", 0},
-        {"last_frame", frames - 1},
-        {"class", "background"}}});
+  summary["models"] = nlohmann::json::array();
+  for (size_t k = 0; k < snapshots.size(); ++k) {
+    const auto& m = snapshots[k];
+    summary["models"].push_back({{"id", m.id},
+                                 {"state", slam::to_string(m.state)},
+                                 {"surfels", all_models[k].surfels.size()},
+                                 {"first_frame", m.first_frame},
+                                 {"last_frame", m.last_frame},
+                                 {"class", m.id == 0 ? "background" : "object"}});
+  }
+  summary["events"] = events;
   write_text_atomically(out_dir / "summary.json", summary.dump(2) + "\n");
-  std::printf("%d frames in %.2f s (%.1f fps), %zu surfels, %zu tracking failures; wrote %s\n", frames, seconds,
-              frames / seconds, background.surfels.size(), failed_frames.size(), out_dir.c_str());
+  std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures; wrote %s\n", frames,
+              seconds, frames / seconds, snapshots.size(), total_surfels, failed_frames.size(), out_dir.c_str());
 }
 
 }  // namespace

@@ -18,6 +18,14 @@ static_assert(sizeof(FuseParams) == 112 && offsetof(FuseParams, fx) == 48 && off
 // Vulkan guarantees 128 bytes of push constants.
 static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128);
 static_assert(sizeof(CleanupParams) == 96 && offsetof(CleanupParams, free_space_penalty) == 92);
+static_assert(sizeof(RemoveRegionParams) == 96 && offsetof(RemoveRegionParams, fx) == 48 &&
+              offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80);
+static_assert(sizeof(MaskVerticesParams) == 32 && offsetof(MaskVerticesParams, level) == 16 &&
+              offsetof(MaskVerticesParams, keep_mask) == 20);
+static_assert(sizeof(MotionResidualParams) == 72 && offsetof(MotionResidualParams, fx) == 48 &&
+              offsetof(MotionResidualParams, height) == 68);
+static_assert(sizeof(RemoveRegionParams) <= 128 && sizeof(MaskVerticesParams) <= 128 &&
+              sizeof(MotionResidualParams) <= 128);
 static_assert(sizeof(Surfel) == 48 && offsetof(Surfel, nx) == 16 && offsetof(Surfel, colour_rgba8) == 32);
 static_assert(sizeof(IcpRgbReduceParams) == 88 && offsetof(IcpRgbReduceParams, fx) == 48 &&
               offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, use_photometric) == 84);

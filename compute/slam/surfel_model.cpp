@@ -50,6 +50,14 @@ void SurfelModel::reserve(gpu::Stream& stream, unsigned needed) {
   capacity_ = capacity;
 }
 
+void SurfelModel::ensure_fusion_scratch(size_t pixels, size_t index_map_cells) {
+  const std::string name = "model " + std::to_string(id_);
+  if (!index_map_ || index_map_->size() < index_map_cells * 8)
+    index_map_ = gpu::Buffer::create(ctx_, index_map_cells * 8, name + " fusion index map");
+  if (!assoc_ || assoc_->size() < pixels * 4) assoc_ = gpu::Buffer::create(ctx_, pixels * 4, name + " fusion association");
+  if (!no_labels_) no_labels_ = gpu::Buffer::create(ctx_, 4, name + " no labels");
+}
+
 std::vector<Surfel> SurfelModel::download(gpu::Stream& stream) const {
   std::vector<Surfel> out(count_);
   stream.download(surfels_, out.data(), out.size() * sizeof(Surfel));
@@ -87,14 +95,15 @@ ModelPrediction ModelPrediction::allocate(gpu::Context& ctx, const Intrinsics& i
 
 // ---------------------------------------------------------------------------------------------
 SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor& preprocessor)
-    : ctx_(ctx),
-      preprocessor_(preprocessor),
+    : preprocessor_(preprocessor),
       splat_(ctx, "splat_surfels", shaders::splat_surfels_comp(), 2, sizeof(L::SplatParams)),
       resolve_(ctx, "splat_resolve", shaders::splat_resolve_comp(), 6, sizeof(L::ResolveParams)),
       subsample_(ctx, "subsample_prediction", shaders::subsample_prediction_comp(), 6, sizeof(L::SubsampleParams)),
       associate_(ctx, "fuse_associate", shaders::fuse_associate_comp(), 9, sizeof(L::FuseParams)),
       update_(ctx, "fuse_update", shaders::fuse_update_comp(), 9, sizeof(L::FuseParams)),
-      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams)) {}
+      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams)),
+      remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 5,
+                     sizeof(L::RemoveRegionParams)) {}
 
 void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
                               ModelPrediction& out, const PredictionParams& params, int frame) const {
@@ -162,10 +171,10 @@ void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, 
   cmd.dispatch(cleanup_, {src, dst, depth_m, counter}, p, group_count(p.surfel_count, 128));
 }
 
-gpu::BufferPtr SurfelPipelines::index_map_for(int width, int height, int scale) const {
-  const size_t bytes = size_t(width) * scale * size_t(height) * scale * 8;
-  if (!index_map_ || index_map_->size() < bytes) index_map_ = gpu::Buffer::create(ctx_, bytes, "fusion index map");
-  return index_map_;
+void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                                    const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels,
+                                    const gpu::BufferPtr& counter, const L::RemoveRegionParams& p) const {
+  cmd.dispatch(remove_region_, {src, dst, depth_m, labels, counter}, p, group_count(p.surfel_count, 128));
 }
 
 FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
@@ -181,9 +190,8 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
   stream.upload(model.counter_, counter_init, sizeof counter_init);
   const int S = params.index_map_scale;
-  auto index_map = index_map_for(k.width, k.height, S);
-  if (!assoc_ || assoc_->size() < size_t(pixels) * 4) assoc_ = gpu::Buffer::create(ctx_, size_t(pixels) * 4, "fusion association");
-  if (!dummy_labels_) dummy_labels_ = gpu::Buffer::create(ctx_, 4, "no labels");
+  model.ensure_fusion_scratch(pixels, size_t(pixels) * size_t(S) * size_t(S));
+  const gpu::BufferPtr& index_map = model.index_map_;
 
   float T[12];
   to_rows(T_camera_model, T);
@@ -223,7 +231,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   cp.free_space_margin_rel = params.free_space_margin_rel;
   cp.free_space_penalty = params.free_space_penalty;
 
-  const gpu::BufferPtr& label_buffer = labels ? labels : dummy_labels_;
+  const gpu::BufferPtr& label_buffer = labels ? labels : model.no_labels_;
   stream.run([&](gpu::CommandList& cmd) {
     cmd.fill(index_map, 0xFFFFFFFFu);
     cmd.fill(model.claim_, 0xFFFFFFFFu);
@@ -231,7 +239,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
     splat(cmd, model.surfels_, index_map, sp);
     cmd.barrier();
     const FuseBuffers b{model.surfels_, index_map, l0.vertex, l0.normal, live.rgb,
-                        assoc_,         model.claim_, model.counter_, label_buffer};
+                        model.assoc_,   model.claim_, model.counter_, label_buffer};
     associate(cmd, b, fp);
     cmd.barrier();
     update(cmd, b, fp);
@@ -245,6 +253,40 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   std::swap(model.surfels_, model.scratch_);
   model.count_ = counter[1];
   return stats;
+}
+
+unsigned SurfelPipelines::remove_region(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
+                                        const Eigen::Isometry3d& T_camera_model, const gpu::BufferPtr& labels,
+                                        unsigned label, float margin_rel) const {
+  const auto& l0 = live.levels.at(0);
+  const Intrinsics& k = l0.intrinsics;
+  const size_t pixels = size_t(k.width) * size_t(k.height);
+  const std::string what = "remove_region on model " + std::to_string(model.id_);
+  if (!labels || labels->size() < pixels * 4)
+    throw Error(what + ": the label map needs " + std::to_string(pixels) + " uints (" + std::to_string(k.width) + "x" +
+                std::to_string(k.height) + ")" + (labels ? ", got " + std::to_string(labels->size() / 4) : std::string()));
+  if (!l0.depth_m || l0.depth_m->size() < pixels * 4) throw Error(what + ": the live frame has no level-0 depth");
+  if (!std::isfinite(margin_rel)) throw Error(what + ": margin_rel is not finite");
+  if (model.count_ == 0) return 0;
+
+  L::RemoveRegionParams p{};
+  to_rows(T_camera_model, p.T_camera_model);
+  p.fx = float(k.fx), p.fy = float(k.fy), p.cx = float(k.cx), p.cy = float(k.cy);
+  p.width = uint32_t(k.width), p.height = uint32_t(k.height);
+  p.surfel_count = model.count_;
+  p.label = label;
+  p.margin_rel = margin_rel;
+  const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
+  stream.upload(model.counter_, counter_init, sizeof counter_init);
+  stream.run([&](gpu::CommandList& cmd) {
+    remove_region(cmd, model.surfels_, model.scratch_, l0.depth_m, labels, model.counter_, p);
+  });
+  uint32_t counter[4];
+  stream.download(model.counter_, counter, sizeof counter);
+  const unsigned removed = model.count_ - counter[1];
+  std::swap(model.surfels_, model.scratch_);
+  model.count_ = counter[1];
+  return removed;
 }
 
 }  // namespace cofusion::slam

@@ -1,6 +1,12 @@
 #pragma once
 // A surfel model in Vulkan buffers, its prediction into a view (compute splatting) and fusion of
 // a live frame into it. Every kernel has a CPU reference in surfel_reference.h.
+//
+// Thread safety: SurfelPipelines holds only pipelines; every method is const and keeps no state
+// between calls, so one instance may serve several threads at once as long as each thread uses
+// its own gpu::Stream (or CommandList) and its own SurfelModel. A SurfelModel (its buffers and the
+// per-fusion scratch it owns) belongs to one thread at a time. Buffers that are only read (the
+// live frame, a label map) may be shared by concurrent calls.
 #include <Eigen/Geometry>
 #include <optional>
 #include <vector>
@@ -35,6 +41,10 @@ class SurfelModel {
 
  private:
   friend class SurfelPipelines;
+  // Allocates (or grows) the per-fusion scratch for a live image of `pixels` pixels and an index
+  // map of `index_map_cells` cells.
+  void ensure_fusion_scratch(size_t pixels, size_t index_map_cells);
+
   gpu::Context& ctx_;
   int id_;
   unsigned count_ = 0;
@@ -44,6 +54,11 @@ class SurfelModel {
   gpu::BufferPtr scratch_;  // compaction target, swapped with surfels_ after cleanup
   gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims
   gpu::BufferPtr counter_;  // uint[4]
+  // Per-fusion scratch, owned here (not by SurfelPipelines) so that different models can be fused
+  // concurrently; allocated on the first fusion, for the live image size.
+  gpu::BufferPtr index_map_;  // uint64 per cell of the supersampled index map
+  gpu::BufferPtr assoc_;      // uint per live pixel
+  gpu::BufferPtr no_labels_;  // bound in place of a label map when fusing without labels
 };
 
 // A model rendered into a camera view, as tracking's reference: per pyramid level the vertex
@@ -76,8 +91,15 @@ class SurfelPipelines {
                    const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
                    const gpu::BufferPtr& labels = nullptr, unsigned label = 0) const;
 
-  // The supersampled index map buffer for a live image size (owned here, reused across models).
-  gpu::BufferPtr index_map_for(int width, int height, int scale) const;
+  // Removes every surfel of `model` (seen at T_camera_model) that projects onto a live pixel whose
+  // label (`labels`: uint per level-0 pixel of `live`) is `label` and that lies in front of or at
+  // the live surface there: z_surfel < d * (1 + margin_rel), d the live depth (level 0, metres;
+  // pixels without depth remove nothing). Surfels behind it (occluded background) stay. Co-Fusion
+  // uses this to take a newly moving object out of the background model. Synchronous, like fuse();
+  // returns the number of surfels removed. Throws cofusion::Error on a missing or short buffer.
+  unsigned remove_region(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
+                         const Eigen::Isometry3d& T_camera_model, const gpu::BufferPtr& labels, unsigned label,
+                         float margin_rel) const;
 
   // Single kernels, as predict() and fuse() record them (for tests against the references).
   struct FuseBuffers {
@@ -94,9 +116,11 @@ class SurfelPipelines {
   void update(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
   void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, const gpu::BufferPtr& depth_m,
                const gpu::BufferPtr& counter, const gpu_layout::CleanupParams& p) const;
+  void remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                     const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels, const gpu::BufferPtr& counter,
+                     const gpu_layout::RemoveRegionParams& p) const;
 
  private:
-  gpu::Context& ctx_;
   const kernels::Preprocessor& preprocessor_;
   gpu::ComputePipeline splat_;
   gpu::ComputePipeline resolve_;
@@ -104,9 +128,7 @@ class SurfelPipelines {
   gpu::ComputePipeline associate_;
   gpu::ComputePipeline update_;
   gpu::ComputePipeline cleanup_;
-  mutable gpu::BufferPtr index_map_;
-  mutable gpu::BufferPtr assoc_;
-  mutable gpu::BufferPtr dummy_labels_;
+  gpu::ComputePipeline remove_region_;
 };
 
 // Row-major float 3x4 of a rigid transform, as the shaders take it.

@@ -210,4 +210,23 @@ std::vector<Surfel> cleanup(const std::vector<Surfel>& surfels, const Image<floa
   return kept;
 }
 
+std::vector<Surfel> remove_region(const std::vector<Surfel>& surfels, const Image<float>& depth_m,
+                                  const std::vector<uint32_t>& labels, const gpu_layout::RemoveRegionParams& p) {
+  std::vector<Surfel> kept;
+  for (size_t i = 0; i < surfels.size() && i < p.surfel_count; ++i) {
+    const Surfel& s = surfels[i];
+    const vec3 pc = apply(p.T_camera_model, position(s));
+    if (pc.z > 1e-3f) {
+      const float u = p.fx * pc.x / pc.z + p.cx, v = p.fy * pc.y / pc.z + p.cy;
+      if (u >= -0.5f && v >= -0.5f && u < float(p.width) - 0.5f && v < float(p.height) - 0.5f) {
+        const int x = int(std::floor(u + 0.5f)), y = int(std::floor(v + 0.5f));
+        const float d = depth_m.at(x, y);
+        if (labels[size_t(y) * p.width + x] == p.label && d > 0.0f && pc.z < d * (1.0f + p.margin_rel)) continue;
+      }
+    }
+    kept.push_back(s);
+  }
+  return kept;
+}
+
 }  // namespace cofusion::slam::reference

@@ -1,6 +1,6 @@
 #pragma once
 // CPU references of the surfel kernels (splat_surfels, splat_resolve, subsample_prediction,
-// fuse_associate, fuse_update, surfel_cleanup), taking the same parameter structs as the shaders.
+// fuse_associate, fuse_update, surfel_cleanup, surfel_remove_region), taking the same parameter structs as the shaders.
 // Sequential loops: "atomic" minima and appends happen in index order, so results are
 // deterministic; GPU appends may come in another order (tests compare those as sets).
 #include <cstdint>
@@ -44,5 +44,9 @@ void update(std::vector<Surfel>& surfels, const Association& a, const LiveMaps& 
 // Surfels kept by surfel_cleanup, in index order.
 std::vector<Surfel> cleanup(const std::vector<Surfel>& surfels, const Image<float>& depth_m,
                             const gpu_layout::CleanupParams& p);
+
+// Surfels kept by surfel_remove_region, in index order. `labels`: uint per live pixel.
+std::vector<Surfel> remove_region(const std::vector<Surfel>& surfels, const Image<float>& depth_m,
+                                  const std::vector<uint32_t>& labels, const gpu_layout::RemoveRegionParams& p);
 
 }  // namespace cofusion::slam::reference

@@ -174,6 +174,61 @@ struct CleanupParams {
   float free_space_penalty;      // confidence removed per free-space violation
 };
 
+// ---- surfel_remove_region.comp: remove the surfels that a labelled live region covers ----------
+// (Co-Fusion: when part of the background starts moving as its own model, the background's copy
+// goes.) A surfel projecting (nearest pixel) onto a live pixel labelled `label` with a depth d > 0
+// is removed when z_surfel < d * (1 + margin_rel); surfels behind that (occluded) stay. The kept
+// ones are compacted into DST (atomic append, order not kept).
+#define REMOVE_REGION_BINDING_SRC 0
+#define REMOVE_REGION_BINDING_DST 1
+#define REMOVE_REGION_BINDING_DEPTH 2    // live depth (metres) at full resolution, 0 = no reading
+#define REMOVE_REGION_BINDING_LABELS 3   // uint[] per live pixel
+#define REMOVE_REGION_BINDING_COUNTER 4  // uint[4]: [0] count to scan, [1] kept count (atomic append into DST)
+struct RemoveRegionParams {
+  float T_camera_model[12];
+  float fx, fy, cx, cy;
+  uint width, height;         // live image
+  uint surfel_count;          // upper bound of counter[0] (the dispatch size)
+  uint label;                 // live pixels with this label are the region
+  float margin_rel;           // surfels with z < d * (1 + margin_rel) are removed
+  uint pad0, pad1, pad2;
+};
+
+// ---- mask_vertices.comp: a level's live vertex map restricted to some models' labels --------
+// dst[x, y] = src[x, y] where the level-0 label at (x << level, y << level) (clamped to the
+// level-0 image) is < 32 and its bit is set in keep_mask; vec4(0) elsewhere.
+#define MASK_VERTICES_BINDING_SRC 0     // vec4[] level vertex map, w = 1 valid
+#define MASK_VERTICES_BINDING_DST 1     // vec4[] same size
+#define MASK_VERTICES_BINDING_LABELS 2  // uint[] per level-0 pixel: model slot 0..31, >= 32 none
+#define MASK_VERTICES_NO_LABEL 32u      // (and any larger value)
+struct MaskVerticesParams {
+  uint width, height;                 // of the level
+  uint level0_width, level0_height;   // of the label map
+  uint level;
+  uint keep_mask;                     // bit k set: keep pixels labelled k
+  uint pad0, pad1;
+};
+
+// ---- motion_residual.comp: per-pixel alignment cost of the live frame against one model -----
+// Projective association as icp_rgb_reduce.comp (nearest reference pixel of T * v_live). Output
+// per live pixel (vec4): x = |n_ref . (q - v_ref)| metres (|q - v_ref| when n_ref is invalid),
+// y = q.z - v_ref.z metres (> 0: live surface behind the model's), z = |I_ref - I_live| / 255,
+// w = status (MOTION_STATUS_*); x, y, z are 0 unless w = MOTION_STATUS_ASSOCIATED.
+#define MOTION_RESIDUAL_BINDING_LIVE_VERTEX 0     // vec4[] live camera frame, w = 1 valid
+#define MOTION_RESIDUAL_BINDING_LIVE_INTENSITY 1  // float[] [0, 255]
+#define MOTION_RESIDUAL_BINDING_REF_VERTEX 2      // vec4[] reference camera frame, w = 1 valid
+#define MOTION_RESIDUAL_BINDING_REF_NORMAL 3      // vec4[] w = 1 valid
+#define MOTION_RESIDUAL_BINDING_REF_INTENSITY 4   // float[] [0, 255]
+#define MOTION_RESIDUAL_BINDING_OUT 5             // vec4[] per live pixel
+#define MOTION_STATUS_ASSOCIATED 1.0
+#define MOTION_STATUS_NO_LIVE 0.0      // no valid live vertex
+#define MOTION_STATUS_NO_MODEL (-1.0)  // live vertex valid, but the model has no geometry there
+struct MotionResidualParams {
+  float T_reference_live[12];  // row-major 3x4: reference-frame point = T * live-frame point
+  float fx, fy, cx, cy;        // level-0 intrinsics (live and reference alike)
+  uint width, height;
+};
+
 // ---- test_fill.comp: used by the compute-core tests only -------------------------------------
 #define TEST_FILL_BINDING_DST 0
 struct TestFillParams {

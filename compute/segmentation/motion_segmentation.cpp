@@ -1,0 +1,336 @@
+#include "segmentation/motion_segmentation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "common/error.h"
+#include "segmentation/parallel.h"
+
+namespace cofusion::segmentation {
+
+namespace {
+
+// Fixed row chunks for the per-superpixel sums (deterministic whatever the thread count).
+constexpr int kChunks = 8;
+// Per superpixel sums: pixels, x, y, r, g, b, pixels with depth, depth; then per model: pixels
+// with depth and a cost, cost sum.
+constexpr int kBaseSums = 8;
+
+bool valid_depth(float d) { return std::isfinite(d) && d > 0; }
+
+std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+}  // namespace
+
+MotionSegmenter::MotionSegmenter(MotionSegmentationParams params) : params_(std::move(params)) {
+  const auto& p = params_;
+  auto positive = [](float v) { return v > 0 && std::isfinite(v); };
+  auto non_negative = [](float v) { return v >= 0 && std::isfinite(v); };
+  if (!positive(p.cost_scale_m)) throw Error("motion segmentation: cost_scale_m must be positive");
+  if (!(p.min_geometry_fraction >= 0 && p.min_geometry_fraction <= 1))
+    throw Error("motion segmentation: min_geometry_fraction must be in [0, 1]");
+  if (!non_negative(p.no_geometry_cost_fraction) || !non_negative(p.no_geometry_cost_min_m) ||
+      !non_negative(p.no_geometry_cost_max_m) || p.no_geometry_cost_max_m < p.no_geometry_cost_min_m)
+    throw Error("motion segmentation: no-geometry costs must be >= 0 and finite, with min <= max");
+  if (!std::isfinite(p.outlier_threshold) || !non_negative(p.outlier_slope) || !non_negative(p.outlier_min_energy))
+    throw Error("motion segmentation: outlier energy parameters must be finite (slope and minimum >= 0)");
+  if (p.min_component_px < 0) throw Error("motion segmentation: min_component_px must be >= 0");
+  // Parameter checks of SLIC and the CRF happen on first use; run the CRF's now on an empty set.
+  DenseCrf probe;
+  probe.set_nodes({}, p.crf);
+}
+
+Superpixels MotionSegmenter::superpixels(const uint8_t* rgb, const float* depth_m, int width, int height) {
+  if (depth_m == nullptr) throw Error("motion segmentation: depth image pointer is null");
+  const auto t0 = std::chrono::steady_clock::now();
+  Superpixels sp = slic_.compute(rgb, depth_m, width, height, params_.slic);
+  last_slic_ms_ = detail::ms_since(t0);
+  return sp;
+}
+
+const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixels& sp, const uint8_t* rgb,
+                                                                 const float* depth_m,
+                                                                 std::span<const std::span<const float>> costs) {
+  const int w = sp.width, h = sp.height;
+  if (w <= 0 || h <= 0) throw Error("motion segmentation: superpixel image size must be positive, got " + size_text(w, h));
+  const auto n = static_cast<size_t>(w) * static_cast<size_t>(h);
+  if (sp.label.size() != n || sp.count <= 0)
+    throw Error("motion segmentation: superpixels hold " + std::to_string(sp.label.size()) + " labels and " +
+                std::to_string(sp.count) + " superpixels for a " + size_text(w, h) + " image");
+  if (rgb == nullptr) throw Error("motion segmentation: rgb image pointer is null");
+  if (depth_m == nullptr) throw Error("motion segmentation: depth image pointer is null");
+  if (costs.size() > static_cast<size_t>(kMaxModels))
+    throw Error("motion segmentation: " + std::to_string(costs.size()) + " models, at most " +
+                std::to_string(kMaxModels) + " are supported");
+  for (size_t m = 0; m < costs.size(); ++m)
+    if (costs[m].size() != n)
+      throw Error("motion segmentation: costs[" + std::to_string(m) + "] has " + std::to_string(costs[m].size()) +
+                  " values, expected " + std::to_string(n) + " (" + size_text(w, h) + ")");
+
+  const int M = static_cast<int>(costs.size());
+  const int K = sp.count;
+  const size_t stride = kBaseSums + 2 * static_cast<size_t>(M);
+  partial_.assign(static_cast<size_t>(kChunks) * static_cast<size_t>(K) * stride, 0.0);
+  struct ChunkInfo {
+    float depth_min = std::numeric_limits<float>::infinity();
+    float depth_max = -std::numeric_limits<float>::infinity();
+    int64_t bad_label = -1, bad_cost = -1;  // first offending pixel
+    int bad_cost_model = 0;
+  };
+  std::vector<ChunkInfo> info(kChunks);
+  detail::for_fixed_chunks(h, kChunks, [&](int chunk, int64_t y0, int64_t y1) {
+    double* acc = partial_.data() + static_cast<size_t>(chunk) * static_cast<size_t>(K) * stride;
+    ChunkInfo ci;  // local copy: neighbouring chunks' entries would share a cache line
+    std::vector<double> run(stride);
+    std::vector<float> row_depth(static_cast<size_t>(w));  // valid depth or 0
+    std::vector<uint8_t> row_valid(static_cast<size_t>(w));
+    for (int64_t y = y0; y < y1; ++y) {
+      const auto row = static_cast<size_t>(y) * static_cast<size_t>(w);
+      for (int x = 0; x < w; ++x) {
+        const float d = depth_m[row + static_cast<size_t>(x)];
+        const bool ok = valid_depth(d);
+        row_valid[static_cast<size_t>(x)] = ok;
+        row_depth[static_cast<size_t>(x)] = ok ? d : 0.0f;
+        if (ok) {
+          ci.depth_min = std::min(ci.depth_min, d);
+          ci.depth_max = std::max(ci.depth_max, d);
+        }
+      }
+      int x = 0;
+      while (x < w) {
+        const int32_t k = sp.label[row + static_cast<size_t>(x)];
+        if (k < 0 || k >= K) {
+          if (ci.bad_label < 0) ci.bad_label = static_cast<int64_t>(row) + x;
+          ++x;
+          continue;
+        }
+        // A run of one superpixel: sum it locally (integers, floats), then flush once.
+        const int xs = x;
+        while (x < w && sp.label[row + static_cast<size_t>(x)] == k) ++x;
+        uint32_t sr = 0, sg = 0, sb = 0, nd = 0;
+        float sd = 0;
+        for (int i = xs; i < x; ++i) {
+          const size_t u = row + static_cast<size_t>(i);
+          sr += rgb[3 * u];
+          sg += rgb[3 * u + 1];
+          sb += rgb[3 * u + 2];
+          nd += row_valid[static_cast<size_t>(i)];
+          sd += row_depth[static_cast<size_t>(i)];
+        }
+        const double len = x - xs;
+        run[0] = len;
+        run[1] = len * (xs + x - 1) * 0.5;
+        run[2] = len * static_cast<double>(y);
+        run[3] = sr;
+        run[4] = sg;
+        run[5] = sb;
+        run[6] = nd;
+        run[7] = sd;
+        for (int m = 0; m < M; ++m) {
+          const float* c = costs[static_cast<size_t>(m)].data() + row;
+          uint32_t n_cost = 0;
+          float s_cost = 0;
+          bool bad = false;
+          for (int i = xs; i < x; ++i) {
+            // Costs count where the pixel has depth; NaN = no geometry.
+            const float v = c[i];
+            const bool use = row_valid[static_cast<size_t>(i)] && !std::isnan(v);
+            bad |= use && !(v >= 0 && v <= std::numeric_limits<float>::max());
+            n_cost += use;
+            s_cost += use ? v : 0.0f;
+          }
+          if (bad && ci.bad_cost < 0) {
+            for (int i = xs; i < x && ci.bad_cost < 0; ++i)
+              if (row_valid[static_cast<size_t>(i)] && !std::isnan(c[i]) && !(c[i] >= 0 && c[i] <= std::numeric_limits<float>::max())) {
+                ci.bad_cost = static_cast<int64_t>(row) + i;
+                ci.bad_cost_model = m;
+              }
+          }
+          run[kBaseSums + 2 * static_cast<size_t>(m)] = n_cost;
+          run[kBaseSums + 2 * static_cast<size_t>(m) + 1] = s_cost;
+        }
+        double* acc_k = acc + static_cast<size_t>(k) * stride;
+        for (size_t j = 0; j < stride; ++j) acc_k[j] += run[j];
+      }
+    }
+    info[static_cast<size_t>(chunk)] = ci;
+  });
+  float depth_min = std::numeric_limits<float>::infinity(), depth_max = -std::numeric_limits<float>::infinity();
+  for (const ChunkInfo& ci : info) {
+    if (ci.bad_label >= 0)
+      throw Error("motion segmentation: superpixel label " + std::to_string(sp.label[static_cast<size_t>(ci.bad_label)]) +
+                  " at pixel (" + std::to_string(ci.bad_label % w) + ", " + std::to_string(ci.bad_label / w) +
+                  ") is outside 0.." + std::to_string(K - 1));
+    if (ci.bad_cost >= 0)
+      throw Error("motion segmentation: costs[" + std::to_string(ci.bad_cost_model) + "] at pixel (" +
+                  std::to_string(ci.bad_cost % w) + ", " + std::to_string(ci.bad_cost / w) + ") is " +
+                  std::to_string(costs[static_cast<size_t>(ci.bad_cost_model)][static_cast<size_t>(ci.bad_cost)]) +
+                  " (expected metres >= 0, or NaN for no geometry)");
+    depth_min = std::min(depth_min, ci.depth_min);
+    depth_max = std::max(depth_max, ci.depth_max);
+  }
+
+  Unaries& u = unaries_;
+  u.depth_range_m = depth_max >= depth_min ? depth_max - depth_min : 0.0f;
+  const float fixed_cost_m = std::min(
+      std::max(params_.no_geometry_cost_fraction * u.depth_range_m, params_.no_geometry_cost_min_m),
+      params_.no_geometry_cost_max_m);
+  const float step_x = sp.step_x_px > 0 ? sp.step_x_px : static_cast<float>(params_.slic.superpixel_size_px);
+  const float step_y = sp.step_y_px > 0 ? sp.step_y_px : static_cast<float>(params_.slic.superpixel_size_px);
+  const size_t L = static_cast<size_t>(M) + 1;
+
+  // Combine the chunks in order; superpixels with depth become CRF nodes.
+  std::vector<double> sums(static_cast<size_t>(K) * stride, 0.0);
+  detail::for_range(K, 128, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int ch = 0; ch < kChunks; ++ch) {
+        const double* a = partial_.data() + (static_cast<size_t>(ch) * static_cast<size_t>(K) + static_cast<size_t>(k)) * stride;
+        double* s = sums.data() + static_cast<size_t>(k) * stride;
+        for (size_t j = 0; j < stride; ++j) s[j] += a[j];
+      }
+  });
+  u.crf_node_of.assign(static_cast<size_t>(K), -1);
+  u.crf_superpixel.clear();
+  for (int32_t k = 0; k < K; ++k)
+    if (sums[static_cast<size_t>(k) * stride + 6] > 0) {
+      u.crf_node_of[static_cast<size_t>(k)] = static_cast<int32_t>(u.crf_superpixel.size());
+      u.crf_superpixel.push_back(k);
+    }
+  const size_t nodes = u.crf_superpixel.size();
+  u.nodes.resize(nodes);
+  u.energy.resize(nodes * L);
+  const auto& p = params_;
+  detail::for_range(static_cast<int64_t>(nodes), 256, [&](int64_t i0, int64_t i1) {
+    for (int64_t ii = i0; ii < i1; ++ii) {
+      const auto i = static_cast<size_t>(ii);
+      const double* s = sums.data() + static_cast<size_t>(u.crf_superpixel[i]) * stride;
+      CrfNode& node = u.nodes[i];
+      node.x = static_cast<float>(s[1] / s[0]) / step_x;
+      node.y = static_cast<float>(s[2] / s[0]) / step_y;
+      node.r = static_cast<float>(s[3] / s[0]);
+      node.g = static_cast<float>(s[4] / s[0]);
+      node.b = static_cast<float>(s[5] / s[0]);
+      node.depth_m = static_cast<float>(s[7] / s[6]);
+      float* e = u.energy.data() + i * L;
+      bool any_geometry = false;
+      float best = std::numeric_limits<float>::infinity();
+      for (int m = 0; m < M; ++m) {
+        const double with_cost = s[kBaseSums + 2 * static_cast<size_t>(m)];
+        const bool has_geometry = with_cost > 0 && with_cost >= p.min_geometry_fraction * s[6];
+        const float cost_m =
+            has_geometry ? static_cast<float>(s[kBaseSums + 2 * static_cast<size_t>(m) + 1] / with_cost) : fixed_cost_m;
+        e[m] = cost_m / p.cost_scale_m;
+        if (has_geometry) {
+          any_geometry = true;
+          best = std::min(best, e[m]);
+        }
+      }
+      e[M] = std::max(p.outlier_threshold - p.outlier_slope * (any_geometry ? best : 0.0f), p.outlier_min_energy);
+    }
+  });
+  return u;
+}
+
+SegmentationResult MotionSegmenter::segment(const Superpixels& sp, const uint8_t* rgb, const float* depth_m,
+                                            std::span<const std::span<const float>> costs) {
+  SegmentationResult result;
+  result.slic_ms = last_slic_ms_;
+  auto t = std::chrono::steady_clock::now();
+  const Unaries& u = compute_unaries(sp, rgb, depth_m, costs);
+  result.unary_ms = detail::ms_since(t);
+
+  t = std::chrono::steady_clock::now();
+  const int M = static_cast<int>(costs.size());
+  const int L = M + 1;
+  crf_.set_nodes(u.nodes, params_.crf);
+  crf_.infer(u.energy, L, q_);
+  const size_t nodes = u.nodes.size();
+  node_label_.resize(nodes);
+  for (size_t i = 0; i < nodes; ++i) {
+    const float* qi = q_.data() + i * static_cast<size_t>(L);
+    node_label_[i] = static_cast<uint8_t>(std::max_element(qi, qi + L) - qi);  // ties: lowest index
+  }
+  const int w = sp.width, h = sp.height;
+  const auto n = static_cast<int64_t>(w) * h;
+  result.width = w;
+  result.height = h;
+  result.model_count = M;
+  result.superpixel_count = sp.count;
+  result.crf_node_count = static_cast<int>(nodes);
+  result.depth_range_m = u.depth_range_m;
+  result.labels.resize(static_cast<size_t>(n));
+  detail::for_range(n, 16384, [&](int64_t i0, int64_t i1) {
+    for (int64_t i = i0; i < i1; ++i) {
+      const auto px = static_cast<size_t>(i);
+      const int32_t node = u.crf_node_of[static_cast<size_t>(sp.label[px])];
+      result.labels[px] = node >= 0 && valid_depth(depth_m[px]) ? node_label_[static_cast<size_t>(node)] : kNoLabel;
+    }
+  });
+  result.crf_ms = detail::ms_since(t);
+
+  t = std::chrono::steady_clock::now();
+  postprocess(result.labels, w, h, M, result);
+  result.post_ms = detail::ms_since(t);
+  return result;
+}
+
+void MotionSegmenter::postprocess(std::vector<uint8_t>& labels, int width, int height, int model_count,
+                                  SegmentationResult& result) {
+  if (width <= 0 || height <= 0) throw Error("motion segmentation: label image size must be positive, got " + size_text(width, height));
+  if (labels.size() != static_cast<size_t>(width) * static_cast<size_t>(height))
+    throw Error("motion segmentation: " + std::to_string(labels.size()) + " labels for a " + size_text(width, height) + " image");
+  if (model_count < 0 || model_count > kMaxModels)
+    throw Error("motion segmentation: model_count " + std::to_string(model_count) + " outside 0.." + std::to_string(kMaxModels));
+  label_components<uint8_t>(labels.data(), width, height, kNoLabel, components_);
+  auto& comps = components_.components;
+  const int outlier = model_count;
+  for (const ComponentInfo& c : comps)
+    if (c.value > outlier)
+      throw Error("motion segmentation: label " + std::to_string(c.value) + " at (" + std::to_string(c.x0) + ", " +
+                  std::to_string(c.y0) + ") is neither a model (0.." + std::to_string(model_count - 1) +
+                  "), the outlier label nor kNoLabel");
+
+  // An object (label 1..model_count-1) is one rigid body: keep its largest component only (first
+  // in raster order on ties). The background (0) may be split by objects in front of it, and every
+  // outlier component is a candidate new object.
+  std::vector<int32_t> largest(static_cast<size_t>(model_count) + 1, -1);
+  for (int32_t i = 0; i < static_cast<int32_t>(comps.size()); ++i) {
+    int32_t& best = largest[static_cast<size_t>(comps[static_cast<size_t>(i)].value)];
+    if (best < 0 || comps[static_cast<size_t>(i)].pixels > comps[static_cast<size_t>(best)].pixels) best = i;
+  }
+  std::vector<uint8_t> keep(comps.size(), 1);
+  for (size_t i = 0; i < comps.size(); ++i) {
+    const int v = comps[i].value;
+    if (comps[i].pixels < params_.min_component_px) keep[i] = 0;
+    if (v != 0 && v != outlier && largest[static_cast<size_t>(v)] != static_cast<int32_t>(i)) keep[i] = 0;
+  }
+  detail::for_range(static_cast<int64_t>(components_.runs.size()), 1024, [&](int64_t a, int64_t e) {
+    for (int64_t i = a; i < e; ++i) {
+      const LabelRun& run = components_.runs[static_cast<size_t>(i)];
+      if (!keep[static_cast<size_t>(run.component)])
+        std::fill_n(labels.begin() + static_cast<std::ptrdiff_t>(run.y) * width + run.x0, run.x1 - run.x0, kNoLabel);
+    }
+  });
+
+  result.model_pixels.assign(static_cast<size_t>(model_count), 0);
+  result.outlier_components.clear();
+  for (size_t i = 0; i < comps.size(); ++i) {
+    if (!keep[i]) continue;
+    const ComponentInfo& c = comps[i];
+    if (c.value == outlier)
+      result.outlier_components.push_back(
+          {static_cast<uint8_t>(c.value), static_cast<int>(c.pixels), c.x0, c.y0, c.x1, c.y1});
+    else
+      result.model_pixels[static_cast<size_t>(c.value)] += static_cast<int>(c.pixels);
+  }
+  std::stable_sort(result.outlier_components.begin(), result.outlier_components.end(),
+                   [](const SegmentationResult::Component& a, const SegmentationResult::Component& b) {
+                     return a.pixels > b.pixels;
+                   });
+}
+
+}  // namespace cofusion::segmentation

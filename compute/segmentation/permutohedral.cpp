@@ -1,0 +1,241 @@
+#include "segmentation/permutohedral.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "common/error.h"
+#include "segmentation/parallel.h"
+
+namespace cofusion::segmentation {
+
+namespace {
+
+// Open-addressing hash from a lattice key (d ints: the first d coordinates of a remainder-0
+// point in the (d+1)-dimensional embedding; the last is minus their sum) to a vertex index.
+class KeyTable {
+ public:
+  KeyTable(int d, size_t expected) : d_(d) {
+    size_t cap = 64;
+    while (cap < 2 * expected) cap *= 2;
+    mask_ = cap - 1;
+    slots_.assign(cap, -1);
+    keys_.reserve(expected * static_cast<size_t>(d));
+  }
+  bool same(const int32_t* a, const int32_t* b) const {
+    for (int i = 0; i < d_; ++i)
+      if (a[i] != b[i]) return false;
+    return true;
+  }
+  int32_t find(const int32_t* key) const {
+    for (size_t h = hash(key) & mask_;; h = (h + 1) & mask_) {
+      const int32_t s = slots_[h];
+      if (s < 0) return -1;
+      if (same(key, keys_.data() + static_cast<size_t>(s) * d_)) return s;
+    }
+  }
+  int32_t insert(const int32_t* key) {
+    if (2 * (static_cast<size_t>(size()) + 1) > slots_.size()) grow();
+    for (size_t h = hash(key) & mask_;; h = (h + 1) & mask_) {
+      const int32_t s = slots_[h];
+      if (s < 0) {
+        slots_[h] = size();
+        keys_.insert(keys_.end(), key, key + d_);
+        return slots_[h];
+      }
+      if (same(key, keys_.data() + static_cast<size_t>(s) * d_)) return s;
+    }
+  }
+  int32_t size() const { return static_cast<int32_t>(keys_.size() / static_cast<size_t>(d_)); }
+  const int32_t* key(int32_t i) const { return keys_.data() + static_cast<size_t>(i) * d_; }
+
+ private:
+  size_t hash(const int32_t* key) const {
+    size_t h = 0;
+    for (int i = 0; i < d_; ++i) h = (h + static_cast<size_t>(static_cast<uint32_t>(key[i]))) * 2531011u;
+    return h ^ (h >> 17);
+  }
+  void grow() {
+    mask_ = mask_ * 2 + 1;
+    slots_.assign(mask_ + 1, -1);
+    for (int32_t s = 0; s < size(); ++s)
+      for (size_t h = hash(key(s)) & mask_;; h = (h + 1) & mask_)
+        if (slots_[h] < 0) {
+          slots_[h] = s;
+          break;
+        }
+  }
+  int d_;
+  size_t mask_ = 0;
+  std::vector<int32_t> slots_;
+  std::vector<int32_t> keys_;
+};
+
+}  // namespace
+
+void PermutohedralLattice::init(const float* features, int d, int n) {
+  if (d < 1 || d > 16) throw Error("permutohedral lattice: dimensions must be in 1..16, got " + std::to_string(d));
+  if (n < 0 || (n > 0 && features == nullptr)) throw Error("permutohedral lattice: bad point set");
+  d_ = d;
+  n_ = n;
+  const int d1 = d + 1;
+  offset_.assign(static_cast<size_t>(n) * d1, 0);
+  barycentric_.assign(static_cast<size_t>(n) * d1, 0.0f);
+
+  // Elevation into the hyperplane sum = 0 of R^(d+1), scaled so that the lattice blur matches a
+  // unit-sigma Gaussian (Adams et al. 2010, section 3; the factor as in Krähenbühl's code).
+  const float inv_std = std::sqrt(2.0f / 3.0f) * static_cast<float>(d1);
+  std::vector<float> scale(static_cast<size_t>(d));
+  for (int i = 0; i < d; ++i) scale[static_cast<size_t>(i)] = inv_std / std::sqrt(static_cast<float>((i + 1) * (i + 2)));
+
+  KeyTable table(d, static_cast<size_t>(n) * d1);
+  std::vector<float> elevated(static_cast<size_t>(d1)), bary(static_cast<size_t>(d1) + 1), cf(static_cast<size_t>(d));
+  std::vector<int32_t> rem0(static_cast<size_t>(d1)), rank(static_cast<size_t>(d1)), key(static_cast<size_t>(d));
+  const float down = 1.0f / static_cast<float>(d1);
+  for (int p = 0; p < n; ++p) {
+    const float* f = features + static_cast<size_t>(p) * d;
+    for (int i = 0; i < d; ++i) cf[static_cast<size_t>(i)] = f[i] * scale[static_cast<size_t>(i)];
+    elevated[static_cast<size_t>(d)] = -static_cast<float>(d) * cf[static_cast<size_t>(d) - 1];
+    for (int i = d - 1; i > 0; --i)
+      elevated[static_cast<size_t>(i)] = elevated[static_cast<size_t>(i) + 1] - static_cast<float>(i) * cf[static_cast<size_t>(i) - 1] +
+                                         static_cast<float>(i + 2) * cf[static_cast<size_t>(i)];
+    elevated[0] = elevated[1] + 2.0f * cf[0];
+
+    // Nearest remainder-0 point (coordinates multiples of d+1), then the rank of each coordinate's
+    // residual, fixed up so that the coordinates sum to zero.
+    int sum = 0;
+    for (int i = 0; i <= d; ++i) {
+      const float v = elevated[static_cast<size_t>(i)] * down;
+      const float up = std::ceil(v) * static_cast<float>(d1);
+      const float dn = std::floor(v) * static_cast<float>(d1);
+      const float e = elevated[static_cast<size_t>(i)];
+      rem0[static_cast<size_t>(i)] = static_cast<int32_t>(up - e < e - dn ? up : dn);
+      sum += rem0[static_cast<size_t>(i)];
+    }
+    sum /= d1;
+    std::fill(rank.begin(), rank.end(), 0);
+    for (int i = 0; i < d; ++i)
+      for (int j = i + 1; j <= d; ++j) {
+        const float di = elevated[static_cast<size_t>(i)] - static_cast<float>(rem0[static_cast<size_t>(i)]);
+        const float dj = elevated[static_cast<size_t>(j)] - static_cast<float>(rem0[static_cast<size_t>(j)]);
+        if (di < dj)
+          ++rank[static_cast<size_t>(i)];
+        else
+          ++rank[static_cast<size_t>(j)];
+      }
+    if (sum > 0) {
+      for (int i = 0; i <= d; ++i) {
+        auto& r = rank[static_cast<size_t>(i)];
+        if (r >= d1 - sum) {
+          rem0[static_cast<size_t>(i)] -= d1;
+          r += sum - d1;
+        } else {
+          r += sum;
+        }
+      }
+    } else if (sum < 0) {
+      for (int i = 0; i <= d; ++i) {
+        auto& r = rank[static_cast<size_t>(i)];
+        if (r < -sum) {
+          rem0[static_cast<size_t>(i)] += d1;
+          r += d1 + sum;
+        } else {
+          r += sum;
+        }
+      }
+    }
+
+    // Barycentric coordinates within the simplex.
+    std::fill(bary.begin(), bary.end(), 0.0f);
+    for (int i = 0; i <= d; ++i) {
+      const float v = (elevated[static_cast<size_t>(i)] - static_cast<float>(rem0[static_cast<size_t>(i)])) * down;
+      bary[static_cast<size_t>(d - rank[static_cast<size_t>(i)])] += v;
+      bary[static_cast<size_t>(d1 - rank[static_cast<size_t>(i)])] -= v;
+    }
+    bary[0] += 1.0f + bary[static_cast<size_t>(d1)];
+
+    // The simplex's vertices: remainder-0 point plus the canonical simplex's offsets.
+    for (int r = 0; r <= d; ++r) {
+      for (int i = 0; i < d; ++i) {
+        const int rk = rank[static_cast<size_t>(i)];
+        key[static_cast<size_t>(i)] = rem0[static_cast<size_t>(i)] + (rk <= d - r ? r : r - d1);
+      }
+      offset_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = table.insert(key.data());
+      barycentric_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = bary[static_cast<size_t>(r)];
+    }
+  }
+  vertex_count_ = table.size();
+
+  // Neighbours of every vertex along each lattice direction j: +-(d+1) e_j -+ 1 in the embedding,
+  // i.e. coordinate j changes by -+d and every other coordinate by -+1. Absent ones point at an
+  // extra vertex (index vertex_count_) whose values stay zero, so the blur has no branches.
+  neighbour_.assign(static_cast<size_t>(vertex_count_) * d1 * 2, vertex_count_);
+  std::vector<int32_t> n1(static_cast<size_t>(d)), n2(static_cast<size_t>(d));
+  for (int32_t v = 0; v < vertex_count_; ++v) {
+    const int32_t* k = table.key(v);
+    for (int j = 0; j <= d; ++j) {
+      for (int i = 0; i < d; ++i) {
+        n1[static_cast<size_t>(i)] = k[i] - 1;
+        n2[static_cast<size_t>(i)] = k[i] + 1;
+      }
+      if (j < d) {
+        n1[static_cast<size_t>(j)] = k[j] + d;
+        n2[static_cast<size_t>(j)] = k[j] - d;
+      }
+      const size_t base = (static_cast<size_t>(v) * d1 + static_cast<size_t>(j)) * 2;
+      const int32_t a = table.find(n1.data()), b = table.find(n2.data());
+      neighbour_[base] = a >= 0 ? a : vertex_count_;
+      neighbour_[base + 1] = b >= 0 ? b : vertex_count_;
+    }
+  }
+}
+
+void PermutohedralLattice::filter(const float* in, float* out, int v) const {
+  const int d1 = d_ + 1;
+  const auto vs = static_cast<size_t>(v);
+  // One extra zero vertex at the end stands for absent neighbours.
+  values_.assign((static_cast<size_t>(vertex_count_) + 1) * vs, 0.0f);
+  scratch_.assign(values_.size(), 0.0f);
+  // Splat (sequential: vertices are shared between points).
+  for (int p = 0; p < n_; ++p) {
+    const float* x = in + static_cast<size_t>(p) * vs;
+    for (int r = 0; r < d1; ++r) {
+      const size_t o = static_cast<size_t>(p) * d1 + static_cast<size_t>(r);
+      const float w = barycentric_[o];
+      float* dst = values_.data() + static_cast<size_t>(offset_[o]) * vs;
+      for (size_t c = 0; c < vs; ++c) dst[c] += w * x[c];
+    }
+  }
+  // Blur along each direction with [1/2 1 1/2]. Parallel only when a pass is large enough to pay
+  // for the task overhead.
+  const int64_t grain = std::max<int64_t>(1024, 65536 / static_cast<int64_t>(vs));
+  for (int j = 0; j < d1; ++j) {
+    detail::for_range(vertex_count_, grain, [&](int64_t v0, int64_t v1) {
+      for (int64_t vi = v0; vi < v1; ++vi) {
+        const size_t base = (static_cast<size_t>(vi) * d1 + static_cast<size_t>(j)) * 2;
+        const float* a = values_.data() + static_cast<size_t>(neighbour_[base]) * vs;
+        const float* b = values_.data() + static_cast<size_t>(neighbour_[base + 1]) * vs;
+        const float* self = values_.data() + static_cast<size_t>(vi) * vs;
+        float* dst = scratch_.data() + static_cast<size_t>(vi) * vs;
+        for (size_t c = 0; c < vs; ++c) dst[c] = self[c] + 0.5f * (a[c] + b[c]);
+      }
+    });
+    values_.swap(scratch_);
+  }
+  // Slice; alpha compensates the blur's gain (Krähenbühl & Koltun's 1 / (1 + 2^-d)).
+  const float alpha = 1.0f / (1.0f + std::pow(2.0f, -static_cast<float>(d_)));
+  detail::for_range(n_, std::max<int64_t>(1024, 65536 / static_cast<int64_t>(vs * static_cast<size_t>(d1))), [&](int64_t p0, int64_t p1) {
+    for (int64_t p = p0; p < p1; ++p) {
+      float* y = out + static_cast<size_t>(p) * vs;
+      for (size_t c = 0; c < vs; ++c) y[c] = 0.0f;
+      for (int r = 0; r < d1; ++r) {
+        const size_t o = static_cast<size_t>(p) * d1 + static_cast<size_t>(r);
+        const float w = barycentric_[o] * alpha;
+        const float* src = values_.data() + static_cast<size_t>(offset_[o]) * vs;
+        for (size_t c = 0; c < vs; ++c) y[c] += w * src[c];
+      }
+    }
+  });
+}
+
+}  // namespace cofusion::segmentation

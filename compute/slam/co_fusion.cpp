@@ -1,0 +1,577 @@
+#include "slam/co_fusion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <cstdio>
+#include <numeric>
+#include <span>
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
+
+#include "common/se3.h"
+
+namespace cofusion::slam {
+namespace {
+using Clock = std::chrono::steady_clock;
+double ms_between(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+
+constexpr uint8_t kNoSlot = 255;  // no model: no depth, or a model's pixel it cannot explain
+constexpr int kSlots = 32;        // the label masks are 32-bit
+// Pixels no model claims although they have depth (outliers that spawned nothing, components the
+// segmentation removed): nobody fuses them, but the background still tracks with them, so that a
+// burst of outliers (fast camera motion) cannot starve the camera's tracking.
+constexpr uint8_t kUnclaimedSlot = kSlots - 1;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+double rotation_deg(const Eigen::Isometry3d& T) { return rotation_angle_rad(T) * 180.0 / M_PI; }
+
+// Surfels of one model expressed in another frame: T_to_from maps positions, its rotation normals.
+void transform_surfels(std::vector<Surfel>& surfels, const Eigen::Isometry3d& T_to_from) {
+  const Eigen::Matrix3f R = T_to_from.rotation().cast<float>();
+  const Eigen::Vector3f t = T_to_from.translation().cast<float>();
+  for (Surfel& s : surfels) {
+    const Eigen::Vector3f p = R * Eigen::Vector3f(s.px, s.py, s.pz) + t;
+    const Eigen::Vector3f n = R * Eigen::Vector3f(s.nx, s.ny, s.nz);
+    s.px = p.x(), s.py = p.y(), s.pz = p.z();
+    s.nx = n.x(), s.ny = n.y(), s.nz = n.z();
+  }
+}
+}  // namespace
+
+const char* to_string(ModelState state) { return state == ModelState::kActive ? "active" : "inactive"; }
+
+// ---------------------------------------------------------------------------------------------
+struct CoFusion::Model {
+  Model(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusionParams& p,
+        const std::vector<kernels::FramePyramid::Level>& live, int id_, int slot_, int frame)
+      : id(id_),
+        slot(slot_),
+        stream(ctx, static_cast<uint32_t>(slot_ + 1), "model " + std::to_string(id_)),
+        surfels(ctx, id_, id_ == 0 ? p.slam.fusion.initial_capacity : std::max(1u << 16, p.slam.fusion.initial_capacity / 8)),
+        prediction(ModelPrediction::allocate(ctx, intrinsics, p.slam.preprocess.pyramid_levels,
+                                             "model " + std::to_string(id_) + " prediction")),
+        tracker(ctx, tracker_params(p, id_)),
+        masked(MotionKernels::allocate_masked_levels(ctx, live, "model " + std::to_string(id_) + " masked live")),
+        first_frame(frame),
+        last_frame(frame) {
+    residuals = gpu::Buffer::create(ctx, size_t(intrinsics.width) * intrinsics.height * 16,
+                                    "model " + std::to_string(id_) + " motion residuals");
+  }
+  static TrackerParams tracker_params(const CoFusionParams& p, int id) {
+    TrackerParams t = p.slam.tracker;
+    if (id != 0) t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
+    return t;
+  }
+
+  int id;
+  int slot;  // label slot while active, -1 while inactive
+  ModelState state = ModelState::kActive;
+  gpu::Stream stream;
+  SurfelModel surfels;
+  ModelPrediction prediction;
+  Tracker tracker;
+  std::vector<kernels::FramePyramid::Level> masked;  // live levels with the vertices this model owned
+  gpu::BufferPtr residuals;                   // vec4 per pixel (motion_kernels.h)
+  std::vector<float> residuals_host;          // its read-back
+
+  // This frame.
+  bool tracked = false;
+  TrackingResult tracking;
+  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();       // T_reference_live of this frame
+  Eigen::Isometry3d last_motion = Eigen::Isometry3d::Identity();  // previous frame's, the guess
+  int pixels = 0;
+
+  int first_frame;
+  int last_frame;
+  int unseen_frames = 0;
+  bool on_probation = true;  // objects: not yet shown to move relative to the background
+  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;  // (frame, T_world_model)
+};
+
+// ---------------------------------------------------------------------------------------------
+CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusionParams& params)
+    : ctx_(ctx),
+      intrinsics_(intrinsics),
+      params_(params),
+      main_stream_(ctx, 0, "co-fusion main"),
+      preprocessor_(ctx),
+      surfels_(ctx, preprocessor_),
+      motion_(ctx),
+      segmenter_(params.segmentation),
+      live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "live")) {
+  if (int(params.slam.tracker.iterations_per_level.size()) < params.slam.preprocess.pyramid_levels)
+    throw Error("tracker needs iterations for each of the " + std::to_string(params.slam.preprocess.pyramid_levels) +
+                " pyramid levels");
+  if (params.lifecycle.max_active_models < 1 || params.lifecycle.max_active_models > kSlots - 1)
+    throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kSlots - 1) + "]");
+  const size_t n = size_t(intrinsics.width) * intrinsics.height;
+  labels_ = gpu::Buffer::create(ctx, n * sizeof(uint32_t), "segmentation labels");
+  slots_.assign(n, 0);
+  create_model(0, Eigen::Isometry3d::Identity());
+}
+
+CoFusion::~CoFusion() {
+  for (auto& m : models_) m->stream.wait_idle();
+  main_stream_.wait_idle();
+}
+
+CoFusion::Model& CoFusion::create_model(int slot, const Eigen::Isometry3d& T_world_model) {
+  const int id = models_.empty() ? 0 : next_id_++;
+  models_.push_back(std::make_unique<Model>(ctx_, intrinsics_, params_, live_.levels, id, slot, frame_));
+  Model& m = *models_.back();
+  m.surfels.T_world_model = T_world_model;
+  if (id == 0) m.on_probation = false;
+  return m;
+}
+
+int CoFusion::free_slot() const {
+  uint32_t used = 0;
+  for (const auto& m : models_)
+    if (m->state == ModelState::kActive) used |= 1u << m->slot;
+  for (int s = 0; s < kSlots - 1; ++s)
+    if (!(used & (1u << s))) return s;
+  return -1;
+}
+
+void CoFusion::upload_labels(const std::vector<uint8_t>& slots) {
+  std::vector<uint32_t> wide(slots.size());
+  for (size_t i = 0; i < slots.size(); ++i) wide[i] = slots[i] == kNoSlot ? 0xFFFFFFFFu : slots[i];
+  main_stream_.upload(labels_, wide.data(), wide.size() * sizeof(uint32_t));
+}
+
+// Predict into the previous view and mask the live vertices to the pixels the model owned in the
+// previous segmentation. Runs on the model's own stream (and thread); the GPU starts it once the
+// preprocessing has signalled its timeline point.
+void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
+  const Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
+  PredictionParams prediction;
+  prediction.min_confidence = params_.slam.fusion.stable_confidence;
+  prediction.recent_window_frames = params_.slam.prediction_recent_window_frames;
+  gpu::CommandList c = m.stream.begin();
+  surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
+  const bool unclaimed = m.id == 0 && unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
+  const uint32_t keep = (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u);
+  motion_.mask_levels(c, live_.levels, m.masked, labels_, keep);
+  // Tracking's submissions are not otherwise ordered after this one: the host waits.
+  m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
+}
+
+// Tracks the model with its own live pixels, then computes the per-pixel alignment cost of the
+// new motion over the whole frame (the segmentation's input).
+void CoFusion::track_model(Model& m) {
+  const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? m.last_motion : Eigen::Isometry3d::Identity();
+  m.tracking = m.tracker.track(m.stream, m.masked, m.prediction.levels, guess);
+  m.tracked = true;
+  m.motion = m.tracking.failed ? guess : m.tracking.T_reference_live;
+  m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.motion;
+  if (params_.motion_segmentation) {
+    m.stream.run([&](gpu::CommandList& cmd) {
+      motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.motion, m.residuals);
+    });
+    m.residuals_host.resize(slots_.size() * 4);
+    m.stream.download(m.residuals, m.residuals_host.data(), m.residuals_host.size() * sizeof(float));
+  }
+}
+
+// The segmentation's input for model m: per-pixel alignment cost in metres, NaN = no geometry.
+void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const {
+  const float* r = m.residuals_host.data();
+  const size_t n = slots_.size();
+  costs.resize(n);
+  const MotionCostParams& p = params_.costs;
+  const bool background = m.id == 0;
+  const auto sigma = [](float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); };
+  const float z_ref = p.noise_reference_depth_m;
+  const float sigma_ref = sigma(z_ref);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i < range.end(); ++i) {
+      const float* v = r + 4 * i;  // (point-to-plane m, live z - predicted z m, |dI|, status)
+      if (v[3] != 1.0f) {
+        costs[i] = kNaN;
+      } else if (background && v[1] > p.revealed_margin_m) {
+        costs[i] = p.revealed_cost_m;
+      } else {
+        const float z = depth_m[i];
+        const float scale = z_ref > 0.0f && z > z_ref ? sigma_ref / sigma(z) : 1.0f;
+        costs[i] = std::min(v[0] * scale + p.photometric_m * v[2], p.max_cost_m);
+      }
+    }
+  });
+}
+
+void CoFusion::fuse_model(Model& m, std::optional<int> duplicate_slot) {
+  const Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
+  if (duplicate_slot)
+    surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(*duplicate_slot),
+                           params_.lifecycle.duplicate_margin_rel);
+  if (m.tracking.failed) return;  // a guessed pose would corrupt the model
+  surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
+                params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot));
+}
+
+// ---------------------------------------------------------------------------------------------
+CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
+  CoFusionFrame out;
+  out.frame = frame_;
+  const int width = intrinsics_.width, height = intrinsics_.height;
+  const size_t n = size_t(width) * height;
+  auto lap = Clock::now();
+  const auto stage = [&](const char* name) {
+    const auto now = Clock::now();
+    out.stage_ms.emplace_back(name, ms_between(lap, now));
+    lap = now;
+  };
+
+  std::vector<Model*> active;
+  for (auto& m : models_)
+    if (m->state == ModelState::kActive) active.push_back(m.get());
+  for (Model* m : active) m->tracked = false, m->tracking = {};
+
+  live_.upload(main_stream_, depth_m, rgb);
+  stage("upload");
+
+  // CPU job system: superpixels of this frame while the GPU preprocesses, predicts and tracks.
+  const Clock::time_point gpu_start = Clock::now();
+  const bool segmenting = params_.motion_segmentation && frame_ > 0;
+  tbb::task_group cpu_jobs;
+  std::optional<segmentation::Superpixels> superpixels;
+  Clock::time_point sp_start, sp_end;
+  if (segmenting)
+    cpu_jobs.run([&] {
+      sp_start = Clock::now();
+      superpixels = segmenter_.superpixels(rgb, depth_m, width, height);
+      sp_end = Clock::now();
+    });
+
+  gpu::CommandList pre = main_stream_.begin();
+  preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, params_.slam.preprocess);
+  const gpu::TimelinePoint preprocessed = main_stream_.submit(std::move(pre));
+  main_stream_.wait(preprocessed);
+  stage("preprocess");
+
+  // One task per model, each on its own stream: models run concurrently where the device has
+  // several queues, and their host-side work (recording, the 6x6 solves) overlaps everywhere.
+  const auto for_each_model = [](const std::vector<Model*>& models, const auto& work) {
+    tbb::task_group jobs;
+    for (Model* m : models) jobs.run([m, &work] { work(*m); });
+    jobs.wait();
+  };
+  if (frame_ > 0) {
+    for_each_model(active, [&](Model& m) { predict_model(m, preprocessed); });
+    stage("predict");
+    for_each_model(active, [&](Model& m) { track_model(m); });
+    stage("track");
+  }
+  const Clock::time_point gpu_end = Clock::now();
+
+  // Poses: the background's motion is the camera's; every other model's follows from its own.
+  const Eigen::Isometry3d T_world_camera_prev = T_world_camera_;
+  if (frame_ > 0) {
+    Model& bg = *active.front();
+    T_world_camera_ = orthonormalised(T_world_camera_prev * bg.motion);
+    out.camera_tracking = bg.tracking;
+    for (Model* m : active)
+      if (m->id != 0)
+        m->surfels.T_world_model = orthonormalised(T_world_camera_ * m->motion.inverse() * T_world_camera_prev.inverse() *
+                                                   m->surfels.T_world_model);
+  }
+  out.T_world_camera = T_world_camera_;
+
+  std::optional<int> spawned_slot;
+  if (segmenting) {
+    cpu_jobs.wait();
+    out.superpixels_ms = ms_between(sp_start, sp_end);
+    out.superpixels_overlap_ms = std::max(0.0, ms_between(std::max(sp_start, gpu_start), std::min(sp_end, gpu_end)));
+    const auto seg_start = Clock::now();
+    std::vector<std::vector<float>> costs(active.size());
+    for (size_t k = 0; k < active.size(); ++k) model_costs(*active[k], depth_m, costs[k]);
+    std::vector<std::span<const float>> views(costs.begin(), costs.end());
+    const segmentation::SegmentationResult seg = segmenter_.segment(*superpixels, rgb, depth_m, views);
+    slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slot);
+    out.segment_ms = ms_between(seg_start, Clock::now());
+  } else {
+    // Everything with depth belongs to the background.
+    for (size_t i = 0; i < n; ++i) slots_[i] = depth_m[i] > 0.0f ? 0 : kNoSlot;
+    upload_labels(slots_);
+    active.front()->pixels = static_cast<int>(std::count(slots_.begin(), slots_.end(), uint8_t{0}));
+  }
+  stage("segment");
+
+  // Fusion, one task per active model (a new one included).
+  std::vector<Model*> fusing;
+  for (auto& m : models_)
+    if (m->state == ModelState::kActive) fusing.push_back(m.get());
+  for_each_model(fusing, [&](Model& m) { fuse_model(m, m.id == 0 ? spawned_slot : std::nullopt); });
+  stage("fuse");
+
+  // Bookkeeping and the report.
+  std::vector<uint16_t> slot_to_id(kSlots, 0xFFFF);
+  for (auto& m : models_) {
+    if (m->state != ModelState::kActive) continue;
+    slot_to_id[m->slot] = static_cast<uint16_t>(m->id);
+    m->trajectory.emplace_back(frame_, m->surfels.T_world_model);
+    ModelStatus s;
+    s.id = m->id;
+    s.state = m->state;
+    s.T_world_model = m->surfels.T_world_model;
+    s.surfels = m->surfels.count();
+    s.first_frame = m->first_frame;
+    s.last_frame = m->last_frame;
+    s.pixels = m->pixels;
+    s.tracked = m->tracked;
+    s.tracking = m->tracking;
+    out.active.push_back(s);
+  }
+  out.labels.resize(n);
+  for (size_t i = 0; i < n; ++i)
+    out.labels[i] = slots_[i] == kNoSlot || slots_[i] == kUnclaimedSlot ? 0xFFFF : slot_to_id[slots_[i]];
+  ++frame_;
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Turns the segmentation (labels = index into `order`, order.size() = outlier) into model slots
+// and applies the lifecycle rules. Uploads the final label map.
+std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationResult& seg,
+                                               const std::vector<std::vector<float>>& costs, const float* depth_m,
+                                               std::vector<Model*>& order, CoFusionFrame& out,
+                                               std::optional<int>& spawned_slot) {
+  const LifecycleParams& p = params_.lifecycle;
+  const int width = intrinsics_.width, height = intrinsics_.height;
+  const size_t n = size_t(width) * height;
+  const uint8_t outlier = static_cast<uint8_t>(order.size());
+  std::vector<uint8_t> slots(n, kNoSlot);
+  const float max_cost = params_.costs.max_explained_cost_m;
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t l = seg.labels[i];
+    if (l < outlier && !(costs[l][i] > max_cost))
+      slots[i] = static_cast<uint8_t>(order[l]->slot);
+    else if (l == outlier || (l == segmentation::kNoLabel && depth_m[i] > 0.0f))
+      slots[i] = kUnclaimedSlot;
+  }
+  Model& bg = *order.front();
+
+  // Merges. A young model that has not moved relative to the background is no object; two models
+  // moving as one body become one. Their pixels go to the model they merge into.
+  const auto relabel = [&](int from, int to) {
+    for (auto& s : slots)
+      if (s == from) s = static_cast<uint8_t>(to);
+  };
+  for (Model* m : order) {
+    if (m->id == 0 || m->state != ModelState::kActive || !m->on_probation) continue;
+    const Eigen::Isometry3d moved = m->trajectory.front().second.inverse() * m->surfels.T_world_model;
+    if (moved.translation().norm() >= p.static_translation_m || rotation_deg(moved) >= p.static_rotation_deg) {
+      m->on_probation = false;
+    } else if (frame_ - m->first_frame >= p.probation_frames) {
+      relabel(m->slot, bg.slot);
+      merge_into(bg, *m, out, "did not move relative to the background");
+    }
+  }
+  for (Model* a : order) {
+    for (Model* b : order) {
+      if (a->id == 0 || b->id <= a->id || a->state != ModelState::kActive || b->state != ModelState::kActive) continue;
+      if (a->on_probation || b->on_probation) continue;
+      const int window = p.merge_window_frames;
+      if (int(a->trajectory.size()) <= window || int(b->trajectory.size()) <= window) continue;
+      const auto pose_at = [](const Model& m, size_t back) { return m.trajectory[m.trajectory.size() - 1 - back].second; };
+      const Eigen::Isometry3d rel_now = a->surfels.T_world_model.inverse() * b->surfels.T_world_model;
+      const Eigen::Isometry3d rel_then = pose_at(*a, window - 1).inverse() * pose_at(*b, window - 1);
+      const Eigen::Isometry3d change = rel_then.inverse() * rel_now;
+      const Eigen::Isometry3d a_moved = pose_at(*a, window - 1).inverse() * a->surfels.T_world_model;
+      const Eigen::Isometry3d b_moved = pose_at(*b, window - 1).inverse() * b->surfels.T_world_model;
+      const auto moved = [&](const Eigen::Isometry3d& T) {
+        return T.translation().norm() >= p.static_translation_m || rotation_deg(T) >= p.static_rotation_deg;
+      };
+      if (change.translation().norm() < p.merge_translation_m && rotation_deg(change) < p.merge_rotation_deg &&
+          moved(a_moved) && moved(b_moved)) {
+        relabel(b->slot, a->slot);
+        merge_into(*a, *b, out, "moves with model " + std::to_string(a->id));
+      }
+    }
+  }
+
+  // The largest connected outlier region (4-connectivity) is a candidate new model.
+  std::vector<int> component(n, -1);
+  std::vector<size_t> best_pixels, pixels;
+  std::vector<size_t> stack;
+  for (size_t start = 0; start < n; ++start) {
+    if (seg.labels[start] != outlier || component[start] >= 0) continue;
+    pixels.clear();
+    stack.assign(1, start);
+    component[start] = 1;
+    while (!stack.empty()) {
+      const size_t i = stack.back();
+      stack.pop_back();
+      pixels.push_back(i);
+      const int x = static_cast<int>(i % width), y = static_cast<int>(i / width);
+      const auto visit = [&](size_t j) {
+        if (seg.labels[j] == outlier && component[j] < 0) component[j] = 1, stack.push_back(j);
+      };
+      if (x > 0) visit(i - 1);
+      if (x + 1 < width) visit(i + 1);
+      if (y > 0) visit(i - width);
+      if (y + 1 < height) visit(i + width);
+    }
+    if (pixels.size() > best_pixels.size()) best_pixels.swap(pixels);
+  }
+  int active_count = 0;
+  for (auto& m : models_) active_count += m->state == ModelState::kActive;
+  const bool camera_steady = !bg.tracking.failed && bg.motion.translation().norm() <= p.spawn_max_camera_translation_m &&
+                             rotation_deg(bg.motion) <= p.spawn_max_camera_rotation_deg;
+  const bool large = double(best_pixels.size()) > p.spawn_min_area_fraction * double(n) &&
+                     double(best_pixels.size()) <= p.spawn_max_area_fraction * double(n);
+  // A region must be there in consecutive frames: transient outliers (a blurred frame, a depth
+  // glitch) spawn nothing.
+  size_t confirmed = 0;
+  for (size_t i : best_pixels) confirmed += spawn_candidate_.size() == n && spawn_candidate_[i];
+  const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(best_pixels.size());
+  spawn_candidate_.assign(n, 0);
+  if (large)
+    for (size_t i : best_pixels) spawn_candidate_[i] = 1;
+  const bool spawn =
+      frame_ >= p.warmup_frames && camera_steady && large && persistent && active_count < p.max_active_models;
+  int new_slot = -1;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  if (spawn) {
+    new_slot = free_slot();
+    for (size_t i : best_pixels) slots[i] = static_cast<uint8_t>(new_slot);
+    spawn_candidate_.clear();
+  }
+  upload_labels(slots);
+
+  if (spawn) {
+    // Centroid of the region's live points (camera frame): the new model's origin.
+    size_t count = 0;
+    for (size_t i : best_pixels) {
+      const float d = depth_m[i];
+      if (!(d > 0.0f)) continue;
+      const double x = double(i % width), y = double(i / width);
+      centroid += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
+      ++count;
+    }
+    if (count > 0) centroid /= double(count);
+    const double percent = 100.0 * double(best_pixels.size()) / double(n);
+    char share[32];
+    std::snprintf(share, sizeof share, "%.1f%%", percent);
+    bool reactivated = false;
+    if (p.reactivate) {
+      for (auto& m : models_) {
+        if (m->state != ModelState::kInactive) continue;
+        if (try_reactivate(*m, new_slot, centroid)) {
+          out.events.push_back("frame " + std::to_string(frame_) + ": re-activated model " + std::to_string(m->id) +
+                               " (" + share + " of the image)");
+          reactivated = true;
+          break;
+        }
+      }
+    }
+    if (!reactivated) {
+      Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
+      T_camera_model.translation() = centroid;
+      Model& m = create_model(new_slot, T_world_camera_ * T_camera_model);
+      m.pixels = static_cast<int>(best_pixels.size());
+      spawned_slot = new_slot;
+      out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" +
+                           share + " of the image)");
+    }
+  }
+
+  // Pixel counts, absence and retirement.
+  std::vector<int> per_slot(kSlots, 0);
+  for (uint8_t s : slots)
+    if (s != kNoSlot) ++per_slot[s];
+  unclaimed_fraction_ = double(per_slot[kUnclaimedSlot]) / double(n);
+  for (auto& m : models_) {
+    if (m->state != ModelState::kActive) continue;
+    m->pixels = per_slot[m->slot];
+    if (m->pixels > 0) {
+      m->last_frame = frame_;
+      m->unseen_frames = 0;
+    } else if (m->id != 0 && ++m->unseen_frames >= p.deactivate_after_frames) {
+      retire(*m, out);
+    }
+  }
+  // Deleted models leave the list.
+  std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == -2; });
+  return slots;
+}
+
+// Tries to align inactive model m with the region labelled `slot`: predicted where the region is
+// (its last orientation relative to the camera, its centre on the region's centroid), then tracked
+// with the region's pixels only.
+bool CoFusion::try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera) {
+  const std::vector<Surfel> surfels = m.surfels.download(m.stream);
+  if (surfels.empty()) return false;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Surfel& s : surfels) centre += Eigen::Vector3d(s.px, s.py, s.pz);
+  centre /= double(surfels.size());
+  Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
+  T_camera_model.translation() += centroid_camera - T_camera_model * centre;
+
+  PredictionParams prediction;
+  prediction.min_confidence = params_.slam.fusion.stable_confidence;
+  m.stream.run([&](gpu::CommandList& c) {
+    surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
+    motion_.mask_levels(c, live_.levels, m.masked, labels_, 1u << slot);
+  });
+  const TrackingResult r = m.tracker.track(m.stream, m.masked, m.prediction.levels, Eigen::Isometry3d::Identity());
+  const LifecycleParams& p = params_.lifecycle;
+  if (r.failed || r.inlier_ratio < p.reactivate_min_inlier_ratio || r.icp_rms_m > p.reactivate_max_rms_m) return false;
+  m.surfels.T_world_model = T_world_camera_ * r.T_reference_live.inverse() * T_camera_model;
+  m.state = ModelState::kActive;
+  m.slot = slot;
+  m.tracking = r;
+  m.tracked = true;
+  m.last_motion = Eigen::Isometry3d::Identity();
+  m.unseen_frames = 0;
+  m.last_frame = frame_;
+  return true;
+}
+
+// Moves every surfel of `gone` into `keep` (expressed in keep's frame) and deletes `gone`.
+void CoFusion::merge_into(Model& keep, Model& gone, CoFusionFrame& out, const std::string& why) {
+  gone.stream.wait_idle();
+  std::vector<Surfel> moved = gone.surfels.download(gone.stream);
+  transform_surfels(moved, keep.surfels.T_world_model.inverse() * gone.surfels.T_world_model);
+  std::vector<Surfel> all = keep.surfels.download(keep.stream);
+  all.insert(all.end(), moved.begin(), moved.end());
+  keep.surfels.upload(keep.stream, all);
+  out.events.push_back("frame " + std::to_string(frame_) + ": merged model " + std::to_string(gone.id) + " into " +
+                       std::to_string(keep.id) + " (" + why + ")");
+  gone.state = ModelState::kInactive;
+  gone.slot = -2;  // deleted at the end of the lifecycle step
+}
+
+void CoFusion::retire(Model& m, CoFusionFrame& out) {
+  m.stream.wait_idle();
+  const std::vector<Surfel> surfels = m.surfels.download(m.stream);
+  const auto stable = static_cast<unsigned>(std::count_if(surfels.begin(), surfels.end(), [&](const Surfel& s) {
+    return s.confidence >= params_.slam.fusion.stable_confidence;
+  }));
+  m.state = ModelState::kInactive;
+  const bool keep = stable >= params_.lifecycle.min_stable_surfels;
+  m.slot = keep ? -1 : -2;
+  out.events.push_back("frame " + std::to_string(frame_) + ": model " + std::to_string(m.id) + " left the view (" +
+                       std::to_string(stable) + " stable surfels): " + (keep ? "inactive" : "deleted"));
+}
+
+std::vector<ModelSnapshot> CoFusion::models() const {
+  std::vector<ModelSnapshot> out;
+  for (const auto& m : models_) {
+    ModelSnapshot s;
+    s.id = m->id;
+    s.state = m->state;
+    s.model = &m->surfels;
+    s.first_frame = m->first_frame;
+    s.last_frame = m->last_frame;
+    s.trajectory = m->trajectory;
+    out.push_back(std::move(s));
+  }
+  std::sort(out.begin(), out.end(), [](const ModelSnapshot& a, const ModelSnapshot& b) { return a.id < b.id; });
+  return out;
+}
+
+}  // namespace cofusion::slam

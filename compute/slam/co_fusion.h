@@ -1,0 +1,218 @@
+#pragma once
+// Multi-object dense SLAM (Co-Fusion, Rünz & Agapito 2017): the background and every moving
+// object are separate surfel models, each with its own pose, prediction, tracking and fusion.
+// Per frame (see README "Frame timeline"):
+//   1. upload + preprocess the live frame (GPU, main stream); SLIC superpixels start on the CPU
+//      job system at the same time (they need only the frame);
+//   2. every active model, on its own stream (its own compute queue where the device has
+//      several): predict into the previous view, track with the live pixels it owned in the
+//      previous segmentation, then compute the per-pixel ICP alignment cost of its new motion;
+//   3. motion segmentation on the CPU (unaries from those costs, fully connected CRF over the
+//      superpixels, connected components);
+//   4. lifecycle: spawn a model from a large outlier region (or re-activate an inactive model
+//      that matches it), remove its duplicate from the background, merge spurious / co-moving
+//      models, retire models whose label has been absent for a while;
+//   5. every active model fuses the pixels labelled with it (again one stream per model).
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "segmentation/motion_segmentation.h"
+#include "slam/dense_slam.h"
+#include "slam/motion_kernels.h"
+
+namespace cofusion::slam {
+
+// How the per-pixel alignment cost of a model (the segmentation's unary input) is formed from
+// the motion residuals (motion_kernels.h). Units: metres.
+struct MotionCostParams {
+  // cost = |point-to-plane distance| + photometric_m * |intensity difference| (intensity in
+  // [0, 1]). The paper's cost is purely geometric; a surface sliding along itself (a box pushed
+  // over a table) has no geometric residual, but its texture does move.
+  float photometric_m = 0.03f;
+  // Background only: where the live surface lies this far behind the predicted background, the
+  // background's surface there has left (an object moved away and revealed what was behind it).
+  // The revealed surface is background, so it costs the background revealed_cost_m rather than
+  // the large distance.
+  float revealed_margin_m = 0.03f;
+  float revealed_cost_m = 0.004f;
+  // Costs are capped here (one wrong association must not dominate a superpixel's mean).
+  float max_cost_m = 0.1f;
+  // Depth noise of structured-light sensors grows with the square of depth (Nguyen et al. 2012:
+  // sigma(z) = 1.2 mm + 1.9 mm * (z/m - 0.4)^2 on the optical axis), so the same residual means
+  // motion near the sensor and noise far from it. Costs beyond noise_reference_depth_m are scaled
+  // by sigma(reference) / sigma(z); nearer ones are left as they are. 0 switches this off.
+  float noise_reference_depth_m = 1.0f;
+  // A pixel labelled as a model whose own cost there is above this is neither fused into that
+  // model nor used to track it in the next frame: it is what the model does not explain (an object
+  // starting to move, an occluding hand), and fusing it would make the model absorb the motion.
+  // Below the segmentation's outlier crossover (1.5 cm with its defaults): on the two_objects
+  // scene 1 cm gives 8 mm camera ATE where 1.5 cm gives 13 mm (the box's pixels, moving slowly
+  // before it is discovered, pull the camera less), with no change on the TUM recordings.
+  float max_explained_cost_m = 0.01f;
+};
+
+// Model lifecycle (paper section "Addition of New Models", plus merging and re-activation).
+struct LifecycleParams {
+  // A new model spawns from a connected outlier region covering more than this fraction of the
+  // image (paper: 3%) ...
+  double spawn_min_area_fraction = 0.03;
+  // ... once the background has been fused for this many frames (its model and the camera pose
+  // must be stable first, paper section III).
+  int warmup_frames = 5;
+  // ... and only while the camera moves less than these per frame (and its tracking succeeded):
+  // during fast camera motion the background's residuals are dominated by blur, rolling shutter
+  // and newly revealed surfaces, not by moving objects (TUM fr1/rpy spawned dozens of models).
+  double spawn_max_camera_rotation_deg = 0.5;
+  double spawn_max_camera_translation_m = 0.02;
+  // ... and only when at least this fraction of the region was a large outlier region in the
+  // previous frame too.
+  double spawn_min_overlap = 0.5;
+  // Active models at most, background included (the label map has 32 slots; each model costs a
+  // prediction, a tracking run and a fusion per frame).
+  int max_active_models = 8;
+  // A model whose label is absent this many consecutive frames becomes inactive ...
+  int deactivate_after_frames = 10;
+  // ... and is kept (inactive) only with at least this many stable surfels, else deleted.
+  unsigned min_stable_surfels = 300;
+  // Spurious models: a new model that has moved less than these relative to the background
+  // after probation_frames is no object (noise or an occlusion edge spawned it) and is merged
+  // back into the background.
+  int probation_frames = 6;
+  double static_translation_m = 0.025;
+  double static_rotation_deg = 5.0;
+  // Two object models whose relative pose changed less than (merge_translation_m,
+  // merge_rotation_deg) over the last merge_window_frames while both moved at least
+  // (static_translation_m, static_rotation_deg) relative to the background move as one body and
+  // are merged (the younger into the older).
+  int merge_window_frames = 10;
+  double merge_translation_m = 0.01;
+  double merge_rotation_deg = 2.0;
+  // Duplicate removal at spawn: background surfels on the new model's pixels that lie in front of
+  // or within this fraction of the live depth behind the live surface are removed.
+  float duplicate_margin_rel = 0.03f;
+  // The background also tracks with unclaimed pixels (outliers that spawned nothing) once they
+  // cover more than this fraction of the previous frame: that many outliers mean the camera's
+  // tracking is struggling (fast motion), not that objects move, and dropping them would starve
+  // it (TUM fr1/rpy). Below it they stay out: an object that starts moving is an outlier before
+  // it becomes a model, and tracking the camera with it biases the camera (two_objects scene:
+  // 1.3 vs 3.9 cm camera ATE when they are always used).
+  double background_tracks_unclaimed_above = 0.15;
+  // Outlier regions larger than this fraction of the image spawn nothing: they are the camera's
+  // tracking going wrong, not an object.
+  double spawn_max_area_fraction = 0.3;
+  // Re-activation: an inactive model re-enters when it aligns with a new outlier region with at
+  // least this inlier ratio and at most this RMS point-to-plane residual.
+  bool reactivate = true;
+  double reactivate_min_inlier_ratio = 0.5;
+  double reactivate_max_rms_m = 0.01;
+  // Object models fail tracking below this inlier ratio (their masked live pixels are few and
+  // partly occluded; the background keeps TrackerParams::min_inlier_ratio).
+  double object_min_inlier_ratio = 0.05;
+};
+
+struct CoFusionParams {
+  SlamParams slam;
+  segmentation::MotionSegmentationParams segmentation;
+  MotionCostParams costs;
+  LifecycleParams lifecycle;
+  // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
+  bool motion_segmentation = true;
+};
+
+enum class ModelState { kActive, kInactive };
+const char* to_string(ModelState state);
+
+// One model's state after a frame.
+struct ModelStatus {
+  int id = 0;  // 0 = background
+  ModelState state = ModelState::kActive;
+  Eigen::Isometry3d T_world_model = Eigen::Isometry3d::Identity();
+  unsigned surfels = 0;
+  int first_frame = 0;  // spawned
+  int last_frame = 0;   // last frame with pixels labelled as this model
+  int pixels = 0;       // labelled pixels this frame
+  bool tracked = false;  // tracked this frame (false the frame it spawned)
+  TrackingResult tracking;
+};
+
+struct CoFusionFrame {
+  int frame = 0;
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  TrackingResult camera_tracking;  // the background's tracking (default on the first frame)
+  std::vector<ModelStatus> active;  // after this frame's lifecycle changes; background first
+  std::vector<std::string> events;  // one line each: spawned, merged, deactivated, re-activated, deleted
+  std::vector<uint16_t> labels;     // per pixel: model id, 0xFFFF = no model (no depth, or unassigned)
+  std::vector<std::pair<std::string, double>> stage_ms;  // wall-clock per stage, in order
+  // CPU segmentation: superpixels (run while the GPU tracks) and the rest (after tracking).
+  double superpixels_ms = 0;
+  double superpixels_overlap_ms = 0;  // of superpixels_ms, the part that ran while GPU work was in flight
+  double segment_ms = 0;
+};
+
+// A model for export and display.
+struct ModelSnapshot {
+  int id = 0;
+  ModelState state = ModelState::kActive;
+  const SurfelModel* model = nullptr;
+  int first_frame = 0, last_frame = 0;
+  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;  // (frame, T_world_model) while active
+};
+
+// Thread safety: one thread calls process() at a time; it uses its own worker threads inside.
+class CoFusion {
+ public:
+  CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusionParams& params);
+  ~CoFusion();
+  CoFusion(const CoFusion&) = delete;
+  CoFusion& operator=(const CoFusion&) = delete;
+
+  // Processes the next frame: `depth_m` width*height floats in metres (0/NaN = no reading), `rgb`
+  // width*height*3 bytes.
+  CoFusionFrame process(const float* depth_m, const uint8_t* rgb);
+
+  // Active and inactive models (background first, then by id).
+  std::vector<ModelSnapshot> models() const;
+  // The main stream (uploads, preprocessing, read-backs for export and display).
+  gpu::Stream& stream() { return main_stream_; }
+  int frames_processed() const { return frame_; }
+  const CoFusionParams& params() const { return params_; }
+
+ private:
+  struct Model;
+  Model& create_model(int slot, const Eigen::Isometry3d& T_world_model);
+  void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
+  void track_model(Model& m);
+  void fuse_model(Model& m, std::optional<int> duplicate_slot);
+  void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
+  std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,
+                                       const std::vector<std::vector<float>>& costs, const float* depth_m,
+                                       std::vector<Model*>& order, CoFusionFrame& out, std::optional<int>& spawned_slot);
+  bool try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera);
+  void merge_into(Model& keep, Model& gone, CoFusionFrame& out, const std::string& why);
+  void retire(Model& m, CoFusionFrame& out);
+  void upload_labels(const std::vector<uint8_t>& slots);
+  int free_slot() const;
+
+  gpu::Context& ctx_;
+  Intrinsics intrinsics_;
+  CoFusionParams params_;
+  gpu::Stream main_stream_;
+  kernels::Preprocessor preprocessor_;
+  SurfelPipelines surfels_;
+  MotionKernels motion_;
+  segmentation::MotionSegmenter segmenter_;
+  kernels::FramePyramid live_;
+  gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
+  std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
+  double unclaimed_fraction_ = 0;  // of the previous frame's pixels
+  std::vector<uint8_t> spawn_candidate_;  // the previous frame's large outlier region (1 = in it)
+  std::vector<std::unique_ptr<Model>> models_;  // active and inactive
+  int next_id_ = 1;
+  int frame_ = 0;
+  Eigen::Isometry3d T_world_camera_ = Eigen::Isometry3d::Identity();
+};
+
+}  // namespace cofusion::slam

@@ -1,0 +1,31 @@
+#version 460
+// Removes the surfels of a model that a labelled live region covers and compacts the rest into
+// the other buffer (atomic append). Co-Fusion: an object that was background and now moves on its
+// own becomes a new model, and the background's copy of it must go; surfels behind the live
+// surface (background the object occluded) stay. Layout and rule in shared/host_device.h.
+#extension GL_GOOGLE_include_directive : require
+#include "shared/host_device.h"
+#include "shared/rigid.glsl"
+layout(local_size_x = 128) in;
+layout(std430, binding = REMOVE_REGION_BINDING_SRC) readonly buffer Src { Surfel src[]; };
+layout(std430, binding = REMOVE_REGION_BINDING_DST) writeonly buffer Dst { Surfel dst[]; };
+layout(std430, binding = REMOVE_REGION_BINDING_DEPTH) readonly buffer Depth { float depth_m[]; };
+layout(std430, binding = REMOVE_REGION_BINDING_LABELS) readonly buffer Labels { uint labels[]; };
+layout(std430, binding = REMOVE_REGION_BINDING_COUNTER) buffer Counter { uint counter[]; };
+layout(push_constant) uniform Push { RemoveRegionParams p; };
+void main() {
+  uint i = gl_GlobalInvocationID.x;
+  if (i >= min(p.surfel_count, counter[0])) return;
+  Surfel s = src[i];
+  vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
+  if (pc.z > 1e-3) {
+    float x = p.fx * pc.x / pc.z + p.cx, y = p.fy * pc.y / pc.z + p.cy;
+    // Nearest pixel, rounding halves up (GLSL round() leaves the direction to the driver).
+    if (x >= -0.5 && y >= -0.5 && x < float(p.width) - 0.5 && y < float(p.height) - 0.5) {
+      uint k = uint(floor(y + 0.5)) * p.width + uint(floor(x + 0.5));
+      float d = depth_m[k];
+      if (labels[k] == p.label && d > 0.0 && pc.z < d * (1.0 + p.margin_rel)) return;
+    }
+  }
+  dst[atomicAdd(counter[1], 1u)] = s;
+}
