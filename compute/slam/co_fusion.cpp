@@ -154,7 +154,7 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
   const bool unclaimed = m.id == 0 && unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
   const uint32_t keep = (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u);
-  motion_.mask_levels(c, live_.levels, m.masked, labels_, keep);
+  if (params_.motion_segmentation) motion_.mask_levels(c, live_.levels, m.masked, labels_, keep);
   // Tracking's submissions are not otherwise ordered after this one: the host waits.
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
 }
@@ -163,7 +163,8 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
 // new motion over the whole frame (the segmentation's input).
 void CoFusion::track_model(Model& m) {
   const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? m.last_motion : Eigen::Isometry3d::Identity();
-  m.tracking = m.tracker.track(m.stream, m.masked, m.prediction.levels, guess);
+  // Background-only runs track with every live pixel: there is nothing to mask.
+  m.tracking = m.tracker.track(m.stream, params_.motion_segmentation ? m.masked : live_.levels, m.prediction.levels, guess);
   m.tracked = true;
   m.motion = m.tracking.failed ? guess : m.tracking.T_reference_live;
   m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.motion;
@@ -293,9 +294,10 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slot);
     out.segment_ms = ms_between(seg_start, Clock::now());
   } else {
-    // Everything with depth belongs to the background.
+    // Everything with depth belongs to the background. The GPU needs the labels only to mask
+    // the next frame's tracking, which a background-only run does not do.
     for (size_t i = 0; i < n; ++i) slots_[i] = depth_m[i] > 0.0f ? 0 : kNoSlot;
-    upload_labels(slots_);
+    if (params_.motion_segmentation) upload_labels(slots_);
     active.front()->pixels = static_cast<int>(std::count(slots_.begin(), slots_.end(), uint8_t{0}));
   }
   stage("segment");
@@ -394,29 +396,16 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   }
 
   // The largest connected outlier region (4-connectivity) is a candidate new model.
-  std::vector<int> component(n, -1);
-  std::vector<size_t> best_pixels, pixels;
-  std::vector<size_t> stack;
-  for (size_t start = 0; start < n; ++start) {
-    if (seg.labels[start] != outlier || component[start] >= 0) continue;
-    pixels.clear();
-    stack.assign(1, start);
-    component[start] = 1;
-    while (!stack.empty()) {
-      const size_t i = stack.back();
-      stack.pop_back();
-      pixels.push_back(i);
-      const int x = static_cast<int>(i % width), y = static_cast<int>(i / width);
-      const auto visit = [&](size_t j) {
-        if (seg.labels[j] == outlier && component[j] < 0) component[j] = 1, stack.push_back(j);
-      };
-      if (x > 0) visit(i - 1);
-      if (x + 1 < width) visit(i + 1);
-      if (y > 0) visit(i - width);
-      if (y + 1 < height) visit(i + width);
-    }
-    if (pixels.size() > best_pixels.size()) best_pixels.swap(pixels);
+  segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
+  int best = -1;
+  for (int c = 0; c < int(components_.components.size()); ++c) {
+    const auto& info = components_.components[size_t(c)];
+    if (info.value == outlier && (best < 0 || info.pixels > components_.components[size_t(best)].pixels)) best = c;
   }
+  std::vector<size_t> best_pixels;
+  for (const auto& run : components_.runs)
+    if (run.component == best)
+      for (int x = run.x0; x < run.x1; ++x) best_pixels.push_back(size_t(run.y) * size_t(width) + size_t(x));
   int active_count = 0;
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
   const bool camera_steady = !bg.tracking.failed && bg.motion.translation().norm() <= p.spawn_max_camera_translation_m &&

@@ -208,7 +208,8 @@ class CoFusion {
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels
-  std::vector<uint8_t> spawn_candidate_;  // the previous frame's large outlier region (1 = in it)
+  std::vector<uint8_t> spawn_candidate_;
+  segmentation::ComponentLabelling components_;  // scratch of the outlier-region search  // the previous frame's large outlier region (1 = in it)
   std::vector<std::unique_ptr<Model>> models_;  // active and inactive
   int next_id_ = 1;
   int frame_ = 0;
