@@ -19,8 +19,8 @@ layout(std430, binding = FUSE_BINDING_COUNTER) buffer Counter { uint counter[]; 
 layout(std430, binding = FUSE_BINDING_LABELS) readonly buffer Labels { uint labels[]; };
 layout(push_constant) uniform Push { FuseParams p; };
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy;
-  if (px.x >= p.width || px.y >= p.height) return;
+  uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
+  if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
   vec4 v = vertex[i], n = normal[i];
   if (v.w == 0.0 || n.w == 0.0 || (p.use_labels != 0u && labels[i] != p.label)) {

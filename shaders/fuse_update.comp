@@ -19,8 +19,8 @@ layout(std430, binding = FUSE_BINDING_LABELS) readonly buffer Labels { uint labe
 layout(push_constant) uniform Push { FuseParams p; };
 uint byte_at(uint b) { return (rgb[b >> 2] >> ((b & 3u) * 8u)) & 0xFFu; }
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy;
-  if (px.x >= p.width || px.y >= p.height) return;
+  uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
+  if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
   uint a = assoc[i];
   if (a == FUSE_SKIP_PIXEL) return;

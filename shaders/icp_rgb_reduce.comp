@@ -54,13 +54,14 @@ void main() {
                       p.T_reference_live[2], p.T_reference_live[6], p.T_reference_live[10]); // column 2
   const vec3 t = vec3(p.T_reference_live[3], p.T_reference_live[7], p.T_reference_live[11]);
   const int w = int(p.width), h = int(p.height);
-  const uint n = p.width * p.height;
+  const uint n = p.rect_width * p.rect_height;
   const float max_d2 = p.max_distance_m * p.max_distance_m;
 
   Term icp = zero_term(), rgb = zero_term();
 
   const uint stride = gl_NumWorkGroups.x * ICP_RGB_GROUP_SIZE;
-  for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) {
+  for (uint ri = gl_GlobalInvocationID.x; ri < n; ri += stride) {
+    const uint i = (p.rect_y0 + ri / p.rect_width) * p.width + p.rect_x0 + ri % p.rect_width;  // live pixel
     const vec4 v_live = live_vertex[i];
     if (v_live.w <= 0.0) continue;
     const vec4 n_live = live_normal[i];

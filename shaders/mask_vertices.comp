@@ -11,8 +11,8 @@ layout(std430, binding = MASK_VERTICES_BINDING_DST) writeonly buffer Dst { vec4 
 layout(std430, binding = MASK_VERTICES_BINDING_LABELS) readonly buffer Labels { uint labels[]; };
 layout(push_constant) uniform Push { MaskVerticesParams p; };
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy;
-  if (px.x >= p.width || px.y >= p.height) return;
+  uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
+  if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
   uvec2 l0 = min(px << p.level, uvec2(p.level0_width - 1u, p.level0_height - 1u));
   uint label = labels[l0.y * p.level0_width + l0.x];

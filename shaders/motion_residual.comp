@@ -14,8 +14,8 @@ layout(std430, binding = MOTION_RESIDUAL_BINDING_REF_INTENSITY) readonly buffer 
 layout(std430, binding = MOTION_RESIDUAL_BINDING_OUT) writeonly buffer Out { vec4 residual[]; };
 layout(push_constant) uniform Push { MotionResidualParams p; };
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy;
-  if (px.x >= p.width || px.y >= p.height) return;
+  uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
+  if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
   vec4 v_live = live_vertex[i];
   if (v_live.w <= 0.0) {

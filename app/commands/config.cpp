@@ -123,7 +123,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const json& p = root["costs"];
     const std::string where = file + ": costs";
     check_keys(p, {"photometric_m", "revealed_margin_m", "revealed_cost_m", "max_cost_m", "noise_reference_depth_m",
-                   "max_explained_cost_m"},
+                   "max_explained_cost_m", "object_margin_px"},
                where);
     read(p, "noise_reference_depth_m", config.costs.noise_reference_depth_m, where);
     read(p, "max_explained_cost_m", config.costs.max_explained_cost_m, where);
@@ -132,7 +132,9 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "revealed_margin_m", c.revealed_margin_m, where);
     read(p, "revealed_cost_m", c.revealed_cost_m, where);
     read(p, "max_cost_m", c.max_cost_m, where);
-    if (!(c.photometric_m >= 0 && c.revealed_margin_m > 0 && c.revealed_cost_m >= 0 && c.max_cost_m > 0))
+    read(p, "object_margin_px", c.object_margin_px, where);
+    if (!(c.photometric_m >= 0 && c.revealed_margin_m > 0 && c.revealed_cost_m >= 0 && c.max_cost_m > 0 &&
+          c.object_margin_px >= 0))
       throw Error(where + ": costs and margins must be positive");
   }
   if (root.contains("lifecycle")) {

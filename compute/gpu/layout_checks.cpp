@@ -14,21 +14,23 @@ static_assert(sizeof(GradientParams) == 8);
 static_assert(sizeof(TestFillParams) == 8);
 static_assert(sizeof(SplatParams) == 96 && offsetof(SplatParams, fx) == 48 && offsetof(SplatParams, footprint_px) == 92);
 static_assert(sizeof(ResolveParams) == 80 && offsetof(ResolveParams, width) == 64);
-static_assert(sizeof(FuseParams) == 112 && offsetof(FuseParams, fx) == 48 && offsetof(FuseParams, label) == 104);
+static_assert(sizeof(FuseParams) == 124 && offsetof(FuseParams, fx) == 48 && offsetof(FuseParams, label) == 104 &&
+              offsetof(FuseParams, rect_x0) == 108);
 // Vulkan guarantees 128 bytes of push constants.
 static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128);
 static_assert(sizeof(CleanupParams) == 96 && offsetof(CleanupParams, free_space_penalty) == 92);
 static_assert(sizeof(RemoveRegionParams) == 96 && offsetof(RemoveRegionParams, fx) == 48 &&
               offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80);
-static_assert(sizeof(MaskVerticesParams) == 32 && offsetof(MaskVerticesParams, level) == 16 &&
-              offsetof(MaskVerticesParams, keep_mask) == 20);
-static_assert(sizeof(MotionResidualParams) == 72 && offsetof(MotionResidualParams, fx) == 48 &&
-              offsetof(MotionResidualParams, height) == 68);
+static_assert(sizeof(MaskVerticesParams) == 40 && offsetof(MaskVerticesParams, level) == 16 &&
+              offsetof(MaskVerticesParams, keep_mask) == 20 && offsetof(MaskVerticesParams, rect_x0) == 24);
+static_assert(sizeof(MotionResidualParams) == 88 && offsetof(MotionResidualParams, fx) == 48 &&
+              offsetof(MotionResidualParams, height) == 68 && offsetof(MotionResidualParams, rect_x0) == 72);
 static_assert(sizeof(RemoveRegionParams) <= 128 && sizeof(MaskVerticesParams) <= 128 &&
               sizeof(MotionResidualParams) <= 128);
 static_assert(sizeof(Surfel) == 48 && offsetof(Surfel, nx) == 16 && offsetof(Surfel, colour_rgba8) == 32);
-static_assert(sizeof(IcpRgbReduceParams) == 88 && offsetof(IcpRgbReduceParams, fx) == 48 &&
-              offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, use_photometric) == 84);
+static_assert(sizeof(IcpRgbReduceParams) == 104 && offsetof(IcpRgbReduceParams, fx) == 48 &&
+              offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, use_photometric) == 84 &&
+              offsetof(IcpRgbReduceParams, rect_x0) == 88 && sizeof(IcpRgbReduceParams) <= 128);
 static_assert(ICP_RGB_OFFSET_VALID >= ICP_RGB_OFFSET_ICP + ICP_RGB_TERM_VALUES && ICP_RGB_OFFSET_RGB > ICP_RGB_OFFSET_VALID &&
               ICP_RGB_OFFSET_RGB + ICP_RGB_TERM_VALUES <= ICP_RGB_PARTIAL_STRIDE && ICP_RGB_PARTIAL_STRIDE == 64);
 static_assert(ICP_RGB_GROUP_SIZE / ICP_RGB_MAX_SUBGROUPS == 4);

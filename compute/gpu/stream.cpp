@@ -60,6 +60,15 @@ void CommandList::fill(const BufferPtr& dst, uint32_t value) {
   held_.push_back(dst);
 }
 
+void CommandList::fill(const BufferPtr& dst, uint32_t value, size_t offset, size_t bytes) {
+  if (offset % 4 != 0 || bytes % 4 != 0 || offset + bytes > dst->size())
+    throw Error("fill of '" + dst->name() + "': " + std::to_string(bytes) + " bytes at " + std::to_string(offset) +
+                " is unaligned or outside its " + std::to_string(dst->size()) + " bytes");
+  if (bytes == 0) return;
+  cmd_.fillBuffer(dst->handle(), offset, bytes, value);
+  held_.push_back(dst);
+}
+
 Stream::Stream(Context& ctx, uint32_t worker, const std::string& name)
     : ctx_(ctx), queue_(ctx.queue_for_worker(worker)), name_(name) {
   pool_ = vk::raii::CommandPool(ctx.device(), vk::CommandPoolCreateInfo{

@@ -50,6 +50,8 @@ class CommandList {
   void copy(const BufferPtr& src, const BufferPtr& dst, size_t bytes, size_t src_offset = 0, size_t dst_offset = 0);
   // Fills the whole buffer with a 32-bit pattern.
   void fill(const BufferPtr& dst, uint32_t value);
+  // Fills `bytes` bytes from `offset` (both multiples of 4).
+  void fill(const BufferPtr& dst, uint32_t value, size_t offset, size_t bytes);
   // Keeps `object` alive until this list has finished executing.
   void hold(std::shared_ptr<const void> object) { held_.push_back(std::move(object)); }
   vk::CommandBuffer handle() const { return *cmd_; }

@@ -28,6 +28,22 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 double rotation_deg(const Eigen::Isometry3d& T) { return rotation_angle_rad(T) * 180.0 / M_PI; }
 
+// Bounding rectangle of each slot's pixels in a label map (empty for slots without pixels).
+std::vector<PixelRect> slot_rects(const std::vector<uint8_t>& slots, int width, int height) {
+  std::vector<PixelRect> rects(256, PixelRect{width, height, 0, 0});
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* row = slots.data() + size_t(y) * size_t(width);
+    for (int x = 0; x < width; ++x) {
+      PixelRect& r = rects[row[x]];
+      r.x0 = std::min(r.x0, x), r.x1 = std::max(r.x1, x + 1);
+      r.y0 = std::min(r.y0, y), r.y1 = std::max(r.y1, y + 1);
+    }
+  }
+  for (PixelRect& r : rects)
+    if (r.empty()) r = PixelRect{};
+  return rects;
+}
+
 // Surfels of one model expressed in another frame: T_to_from maps positions, its rotation normals.
 void transform_surfels(std::vector<Surfel>& surfels, const Eigen::Isometry3d& T_to_from) {
   const Eigen::Matrix3f R = T_to_from.rotation().cast<float>();
@@ -75,7 +91,12 @@ struct CoFusion::Model {
   Tracker tracker;
   std::vector<kernels::FramePyramid::Level> masked;  // live levels with the vertices this model owned
   gpu::BufferPtr residuals;                   // vec4 per pixel (motion_kernels.h)
-  std::vector<float> residuals_host;          // its read-back
+  std::vector<float> residuals_host;          // its read-back (valid in residual_rect's rows)
+  // Objects work only where they are: tracking, masking and fusion in the bounding rectangle of
+  // their labelled pixels (previous segmentation for tracking, this one for fusion), residuals in
+  // that of the previous segmentation grown by MotionCostParams::object_margin_px. The
+  // background works on the whole image.
+  PixelRect track_rect, residual_rect;
 
   // This frame.
   bool tracked = false;
@@ -154,7 +175,7 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
   const bool unclaimed = m.id == 0 && unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
   const uint32_t keep = (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u);
-  if (params_.motion_segmentation) motion_.mask_levels(c, live_.levels, m.masked, labels_, keep);
+  if (params_.motion_segmentation) motion_.mask_levels(c, live_.levels, m.masked, labels_, keep, m.track_rect);
   // Tracking's submissions are not otherwise ordered after this one: the host waits.
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
 }
@@ -164,16 +185,19 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
 void CoFusion::track_model(Model& m) {
   const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? m.last_motion : Eigen::Isometry3d::Identity();
   // Background-only runs track with every live pixel: there is nothing to mask.
-  m.tracking = m.tracker.track(m.stream, params_.motion_segmentation ? m.masked : live_.levels, m.prediction.levels, guess);
+  m.tracking = m.tracker.track(m.stream, params_.motion_segmentation ? m.masked : live_.levels, m.prediction.levels, guess,
+                               m.track_rect);
   m.tracked = true;
   m.motion = m.tracking.failed ? guess : m.tracking.T_reference_live;
   m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.motion;
   if (params_.motion_segmentation) {
     m.stream.run([&](gpu::CommandList& cmd) {
-      motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.motion, m.residuals);
+      motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.motion, m.residuals, m.residual_rect);
     });
     m.residuals_host.resize(slots_.size() * 4);
-    m.stream.download(m.residuals, m.residuals_host.data(), m.residuals_host.size() * sizeof(float));
+    const size_t row_floats = size_t(intrinsics_.width) * 4, offset = size_t(m.residual_rect.y0) * row_floats;
+    m.stream.download(m.residuals, m.residuals_host.data() + offset,
+                      size_t(m.residual_rect.height()) * row_floats * sizeof(float), offset * sizeof(float));
   }
 }
 
@@ -181,6 +205,8 @@ void CoFusion::track_model(Model& m) {
 void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const {
   const float* r = m.residuals_host.data();
   const size_t n = slots_.size();
+  const PixelRect& rect = m.residual_rect;
+  const int width = intrinsics_.width;
   costs.resize(n);
   const MotionCostParams& p = params_.costs;
   const bool background = m.id == 0;
@@ -190,7 +216,8 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t i = range.begin(); i < range.end(); ++i) {
       const float* v = r + 4 * i;  // (point-to-plane m, live z - predicted z m, |dI|, status)
-      if (v[3] != 1.0f) {
+      const int x = int(i % size_t(width)), y = int(i / size_t(width));
+      if (x < rect.x0 || x >= rect.x1 || y < rect.y0 || y >= rect.y1 || v[3] != 1.0f) {
         costs[i] = kNaN;
       } else if (background && v[1] > p.revealed_margin_m) {
         costs[i] = p.revealed_cost_m;
@@ -203,14 +230,15 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   });
 }
 
-void CoFusion::fuse_model(Model& m, std::optional<int> duplicate_slot) {
+void CoFusion::fuse_model(Model& m, std::optional<int> duplicate_slot, const PixelRect& fuse_rect) {
   const Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
   if (duplicate_slot)
     surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(*duplicate_slot),
                            params_.lifecycle.duplicate_margin_rel);
   if (m.tracking.failed) return;  // a guessed pose would corrupt the model
   surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
-                params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot));
+                params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
+                m.id == 0 ? std::nullopt : std::optional(fuse_rect));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -230,6 +258,15 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
   for (auto& m : models_)
     if (m->state == ModelState::kActive) active.push_back(m.get());
   for (Model* m : active) m->tracked = false, m->tracking = {};
+  {
+    // Where each model works this frame (see Model::track_rect).
+    const std::vector<PixelRect> rects = slot_rects(slots_, width, height);
+    const PixelRect full = PixelRect::full(width, height);
+    for (Model* m : active) {
+      m->track_rect = m->id == 0 ? full : rects[size_t(m->slot)];
+      m->residual_rect = m->id == 0 ? full : m->track_rect.grown(params_.costs.object_margin_px).clamped(width, height);
+    }
+  }
 
   live_.upload(main_stream_, depth_m, rgb);
   stage("upload");
@@ -306,7 +343,10 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
   std::vector<Model*> fusing;
   for (auto& m : models_)
     if (m->state == ModelState::kActive) fusing.push_back(m.get());
-  for_each_model(fusing, [&](Model& m) { fuse_model(m, m.id == 0 ? spawned_slot : std::nullopt); });
+  const std::vector<PixelRect> fuse_rects = slot_rects(slots_, width, height);
+  for_each_model(fusing, [&](Model& m) {
+    fuse_model(m, m.id == 0 ? spawned_slot : std::nullopt, fuse_rects[size_t(m.slot)]);
+  });
   stage("fuse");
 
   // Bookkeeping and the report.

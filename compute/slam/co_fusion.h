@@ -52,6 +52,11 @@ struct MotionCostParams {
   // scene 1 cm gives 8 mm camera ATE where 1.5 cm gives 13 mm (the box's pixels, moving slowly
   // before it is discovered, pull the camera less), with no change on the TUM recordings.
   float max_explained_cost_m = 0.01f;
+  // An object's residuals are computed only within this many pixels (level 0) of the bounding
+  // rectangle of its previous segmentation; beyond it the object counts as having no geometry.
+  // Its region can grow this much per frame (fast objects move 10-20 px per frame at 30 Hz),
+  // and the cost of every object stays in proportion to its size.
+  int object_margin_px = 32;
 };
 
 // Model lifecycle (paper section "Addition of New Models", plus merging and re-activation).
@@ -185,7 +190,7 @@ class CoFusion {
   Model& create_model(int slot, const Eigen::Isometry3d& T_world_model);
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
   void track_model(Model& m);
-  void fuse_model(Model& m, std::optional<int> duplicate_slot);
+  void fuse_model(Model& m, std::optional<int> duplicate_slot, const PixelRect& fuse_rect);
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
   std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,
                                        const std::vector<std::vector<float>>& costs, const float* depth_m,

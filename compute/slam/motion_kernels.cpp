@@ -1,5 +1,6 @@
 #include "slam/motion_kernels.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/error.h"
@@ -32,7 +33,7 @@ MotionKernels::MotionKernels(gpu::Context& ctx)
 void MotionKernels::mask_vertices(gpu::CommandList& cmd, const gpu::BufferPtr& src_vertex,
                                   const gpu::BufferPtr& dst_vertex, const gpu::BufferPtr& labels, int level_width,
                                   int level_height, int level0_width, int level0_height, int level,
-                                  uint32_t keep_mask) const {
+                                  uint32_t keep_mask, const std::optional<PixelRect>& rect) const {
   const std::string what = "mask_vertices (level " + std::to_string(level) + ")";
   if (level < 0 || level > 31) throw Error(what + ": level out of range 0..31");
   if (level0_width <= 0 || level0_height <= 0)
@@ -47,21 +48,26 @@ void MotionKernels::mask_vertices(gpu::CommandList& cmd, const gpu::BufferPtr& s
   require(src_vertex, n * 16, what, "source vertex");
   require(dst_vertex, n * 16, what, "destination vertex");
   require(labels, size_t(level0_width) * size_t(level0_height) * 4, what, "label");
+  const PixelRect r = rect ? rect->clamped(level_width, level_height) : PixelRect::full(level_width, level_height);
+  if (r.empty()) return;
   const L::MaskVerticesParams p{uint32_t(level_width), uint32_t(level_height), uint32_t(level0_width),
-                                uint32_t(level0_height), uint32_t(level), keep_mask, 0, 0};
-  cmd.dispatch(mask_vertices_, {src_vertex, dst_vertex, labels}, p, tiles(level_width), tiles(level_height));
+                                uint32_t(level0_height), uint32_t(level), keep_mask, uint32_t(r.x0), uint32_t(r.y0),
+                                uint32_t(r.x1), uint32_t(r.y1)};
+  cmd.dispatch(mask_vertices_, {src_vertex, dst_vertex, labels}, p, tiles(r.width()), tiles(r.height()));
 }
 
 void MotionKernels::mask_levels(gpu::CommandList& cmd, const std::vector<kernels::FramePyramid::Level>& live,
                                 const std::vector<kernels::FramePyramid::Level>& masked, const gpu::BufferPtr& labels,
-                                uint32_t keep_mask) const {
+                                uint32_t keep_mask, const std::optional<PixelRect>& rect_level0) const {
   if (live.empty() || masked.size() != live.size())
     throw Error("mask_levels: " + std::to_string(masked.size()) + " masked levels for " + std::to_string(live.size()) +
                 " live levels");
   for (size_t l = 0; l < live.size(); ++l) {
     if (masked[l].vertex == live[l].vertex) throw Error("mask_levels: level " + std::to_string(l) + " masks in place");
     mask_vertices(cmd, live[l].vertex, masked[l].vertex, labels, live[l].width, live[l].height, live[0].width,
-                  live[0].height, int(l), keep_mask);
+                  live[0].height, int(l), keep_mask,
+                  rect_level0 ? std::optional(rect_level0->at_level(int(l), live[l].width, live[l].height))
+                              : std::nullopt);
   }
 }
 
@@ -76,7 +82,7 @@ std::vector<kernels::FramePyramid::Level> MotionKernels::allocate_masked_levels(
 
 void MotionKernels::residuals(gpu::CommandList& cmd, const kernels::FramePyramid::Level& live,
                               const kernels::FramePyramid::Level& reference, const Eigen::Isometry3d& T_reference_live,
-                              const gpu::BufferPtr& out) const {
+                              const gpu::BufferPtr& out, const std::optional<PixelRect>& rect) const {
   const std::string what = "MotionKernels::residuals";
   if (live.width != reference.width || live.height != reference.height)
     throw Error(what + ": live " + size_text(live.width, live.height) + " and reference " +
@@ -94,6 +100,9 @@ void MotionKernels::residuals(gpu::CommandList& cmd, const kernels::FramePyramid
   const Intrinsics& k = live.intrinsics;
   p.fx = float(k.fx), p.fy = float(k.fy), p.cx = float(k.cx), p.cy = float(k.cy);
   p.width = uint32_t(live.width), p.height = uint32_t(live.height);
+  const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
+  if (r.empty()) return;
+  p.rect_x0 = uint32_t(r.x0), p.rect_y0 = uint32_t(r.y0), p.rect_x1 = uint32_t(r.x1), p.rect_y1 = uint32_t(r.y1);
   residuals(cmd, live.vertex, live.intensity, reference.vertex, reference.normal, reference.intensity, out,
                    p);
 }
@@ -102,8 +111,10 @@ void MotionKernels::residuals(gpu::CommandList& cmd, const gpu::BufferPtr& live_
                               const gpu::BufferPtr& live_intensity, const gpu::BufferPtr& ref_vertex,
                               const gpu::BufferPtr& ref_normal, const gpu::BufferPtr& ref_intensity,
                               const gpu::BufferPtr& out, const L::MotionResidualParams& p) const {
+  const int w = int(std::min(p.rect_x1, p.width)) - int(p.rect_x0), h = int(std::min(p.rect_y1, p.height)) - int(p.rect_y0);
+  if (w <= 0 || h <= 0) return;
   cmd.dispatch(motion_residual_, {live_vertex, live_intensity, ref_vertex, ref_normal, ref_intensity, out}, p,
-               tiles(int(p.width)), tiles(int(p.height)));
+               tiles(w), tiles(h));
 }
 
 }  // namespace cofusion::slam

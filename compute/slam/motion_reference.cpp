@@ -10,24 +10,34 @@ using glm::vec3;
 using glm::vec4;
 using kernels::Image;
 
-Image<vec4> mask_vertices(const Image<vec4>& src, const Image<uint32_t>& labels, int level, uint32_t keep_mask) {
-  Image<vec4> dst(src.width, src.height);
-  for (int y = 0; y < src.height; ++y)
-    for (int x = 0; x < src.width; ++x) {
+Image<vec4> mask_vertices(const Image<vec4>& src, const Image<uint32_t>& labels, int level, uint32_t keep_mask,
+                          Image<vec4> dst, const PixelRect& rect) {
+  const PixelRect r = rect.clamped(src.width, src.height);
+  for (int y = r.y0; y < r.y1; ++y)
+    for (int x = r.x0; x < r.x1; ++x) {
       const int x0 = std::min(x << level, labels.width - 1), y0 = std::min(y << level, labels.height - 1);
       const uint32_t label = labels.at(x0, y0);
-      if (label < MASK_VERTICES_NO_LABEL && ((keep_mask >> label) & 1u) != 0u) dst.at(x, y) = src.at(x, y);
+      dst.at(x, y) = label < MASK_VERTICES_NO_LABEL && ((keep_mask >> label) & 1u) != 0u ? src.at(x, y) : vec4(0.0f);
     }
   return dst;
 }
 
+Image<vec4> mask_vertices(const Image<vec4>& src, const Image<uint32_t>& labels, int level, uint32_t keep_mask) {
+  return mask_vertices(src, labels, level, keep_mask, Image<vec4>(src.width, src.height),
+                       PixelRect::full(src.width, src.height));
+}
+
 Image<vec4> motion_residuals(const Image<vec4>& live_vertex, const Image<float>& live_intensity,
                              const Image<vec4>& ref_vertex, const Image<vec4>& ref_normal,
-                             const Image<float>& ref_intensity, const gpu_layout::MotionResidualParams& p) {
+                             const Image<float>& ref_intensity, const gpu_layout::MotionResidualParams& p,
+                             Image<vec4> out) {
   const float* T = p.T_reference_live;
   const int w = int(p.width), h = int(p.height);
-  Image<vec4> out(w, h);
+  if (out.width != w || out.height != h) out = Image<vec4>(w, h);
+  const PixelRect rect = PixelRect{int(p.rect_x0), int(p.rect_y0), int(std::min(p.rect_x1, p.width)),
+                                   int(std::min(p.rect_y1, p.height))}.clamped(w, h);
   for (int i = 0; i < w * h; ++i) {
+    if (i % w < rect.x0 || i % w >= rect.x1 || i / w < rect.y0 || i / w >= rect.y1) continue;
     const vec4 v = live_vertex.pixels[size_t(i)];
     if (v.w <= 0.0f) {
       out.pixels[size_t(i)] = vec4(0, 0, 0, MOTION_STATUS_NO_LIVE);

@@ -1,6 +1,8 @@
 #include "slam/surfel_model.h"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "embedded_shaders.h"
 #include "shared/host_device.h"
@@ -155,14 +157,26 @@ void SurfelPipelines::subsample(gpu::CommandList& cmd, const kernels::FramePyram
                tiles(dst.width), tiles(dst.height));
 }
 
+namespace {
+// Workgroups covering FuseParams' pixel rectangle (0 when it is empty).
+std::pair<uint32_t, uint32_t> rect_tiles(const L::FuseParams& p) {
+  const int w = int(std::min(p.rect_x1, p.width)) - int(p.rect_x0), h = int(std::min(p.rect_y1, p.height)) - int(p.rect_y0);
+  return w > 0 && h > 0 ? std::pair(tiles(w), tiles(h)) : std::pair(0u, 0u);
+}
+}  // namespace
+
 void SurfelPipelines::associate(gpu::CommandList& cmd, const FuseBuffers& b, const L::FuseParams& p) const {
+  const auto [gx, gy] = rect_tiles(p);
+  if (gx == 0) return;
   cmd.dispatch(associate_, {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels}, p,
-               tiles(int(p.width)), tiles(int(p.height)));
+               gx, gy);
 }
 
 void SurfelPipelines::update(gpu::CommandList& cmd, const FuseBuffers& b, const L::FuseParams& p) const {
+  const auto [gx, gy] = rect_tiles(p);
+  if (gx == 0) return;
   cmd.dispatch(update_, {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels}, p,
-               tiles(int(p.width)), tiles(int(p.height)));
+               gx, gy);
 }
 
 void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
@@ -179,14 +193,18 @@ void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr&
 
 FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
                                   const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
-                                  const gpu::BufferPtr& labels, unsigned label) const {
+                                  const gpu::BufferPtr& labels, unsigned label,
+                                  const std::optional<PixelRect>& rect) const {
   const auto& l0 = live.levels.at(0);
   const Intrinsics& k = l0.intrinsics;
   const unsigned pixels = unsigned(k.width) * unsigned(k.height);
+  const PixelRect area = rect ? rect->clamped(k.width, k.height) : PixelRect::full(k.width, k.height);
   FusionStats stats;
   stats.surfels_before = model.count_;
-  // Room for one new surfel per live pixel, so the append in fuse_update can never overflow.
-  model.reserve(stream, model.count_ + pixels);
+  // Room for one new surfel per pixel of the rectangle, so the append in fuse_update can never
+  // overflow; cleanup scans no further.
+  const unsigned most_surfels = model.count_ + unsigned(area.area());
+  model.reserve(stream, most_surfels);
   const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
   stream.upload(model.counter_, counter_init, sizeof counter_init);
   const int S = params.index_map_scale;
@@ -219,12 +237,14 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   fp.max_radius_growth = params.max_radius_growth;
   fp.use_labels = labels ? 1u : 0u;
   fp.label = label;
+  fp.rect_x0 = uint32_t(area.x0), fp.rect_y0 = uint32_t(area.y0), fp.rect_x1 = uint32_t(area.x1),
+  fp.rect_y1 = uint32_t(area.y1);
 
   L::CleanupParams cp{};
   std::copy(T, T + 12, cp.T_camera_model);
   cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy;
   cp.width = fp.width, cp.height = fp.height;
-  cp.surfel_count = model.count_ + pixels;
+  cp.surfel_count = most_surfels;
   cp.frame = frame;
   cp.stable_confidence = params.stable_confidence;
   cp.unstable_window_frames = params.unstable_window_frames;
@@ -232,9 +252,12 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   cp.free_space_penalty = params.free_space_penalty;
 
   const gpu::BufferPtr& label_buffer = labels ? labels : model.no_labels_;
+  // Association reads only the index-map rows of the rectangle's pixels and the claims of
+  // existing surfels: nothing else needs clearing.
+  const size_t row_bytes = size_t(k.width) * size_t(S) * 8;
   stream.run([&](gpu::CommandList& cmd) {
-    cmd.fill(index_map, 0xFFFFFFFFu);
-    cmd.fill(model.claim_, 0xFFFFFFFFu);
+    cmd.fill(index_map, 0xFFFFFFFFu, size_t(area.y0) * size_t(S) * row_bytes, size_t(area.height()) * size_t(S) * row_bytes);
+    cmd.fill(model.claim_, 0xFFFFFFFFu, 0, size_t(model.count_) * 4);
     cmd.barrier();
     splat(cmd, model.surfels_, index_map, sp);
     cmd.barrier();

@@ -11,6 +11,7 @@
 #include <optional>
 #include <vector>
 
+#include "common/pixel_rect.h"
 #include "common/surfel_cloud.h"
 #include "gpu/stream.h"
 #include "kernels/preprocess.h"
@@ -86,10 +87,13 @@ class SurfelPipelines {
 
   // Fuses the live frame (level 0 of `live`) into `model` seen at T_camera_model, then removes
   // unstable and free-space surfels. With `labels` (uint per pixel), only pixels whose label is
-  // `label` are fused. Synchronous: returns when the model's new count is known.
+  // `label` are fused. With `rect` (level-0 pixels), only pixels in it are fused: with labels it
+  // must hold every pixel labelled `label`, and then the result is the same, at the cost of the
+  // rectangle instead of the image. Synchronous: returns when the model's new count is known.
   FusionStats fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
                    const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
-                   const gpu::BufferPtr& labels = nullptr, unsigned label = 0) const;
+                   const gpu::BufferPtr& labels = nullptr, unsigned label = 0,
+                   const std::optional<PixelRect>& rect = std::nullopt) const;
 
   // Removes every surfel of `model` (seen at T_camera_model) that projects onto a live pixel whose
   // label (`labels`: uint per level-0 pixel of `live`) is `label` and that lies in front of or at

@@ -113,8 +113,8 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
   Association a{std::vector<uint32_t>(size_t(p.width) * p.height, FUSE_SKIP_PIXEL),
                 std::vector<uint32_t>(surfels.size(), 0xFFFFFFFFu)};
   const uint32_t S = p.grid_scale, grid_width = p.width * S;
-  for (uint32_t y = 0; y < p.height; ++y)
-    for (uint32_t x = 0; x < p.width; ++x) {
+  for (uint32_t y = p.rect_y0; y < std::min(p.rect_y1, p.height); ++y)
+    for (uint32_t x = p.rect_x0; x < std::min(p.rect_x1, p.width); ++x) {
       const uint32_t i = y * p.width + x;
       const glm::vec4 v = live.vertex.pixels[i], n = live.normal.pixels[i];
       if (v.w == 0.0f || n.w == 0.0f || (p.use_labels && live.labels[i] != p.label)) continue;

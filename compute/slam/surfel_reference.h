@@ -37,6 +37,7 @@ struct Association {
   std::vector<uint32_t> assoc;  // per pixel
   std::vector<uint32_t> claim;  // per surfel
 };
+// Pixels outside p's rectangle are FUSE_SKIP_PIXEL.
 Association associate(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map, const LiveMaps& live,
                       const gpu_layout::FuseParams& p);
 // Updates `surfels` in place and appends new ones (in pixel order).

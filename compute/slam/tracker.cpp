@@ -84,7 +84,8 @@ void Tracker::set_params(const TrackerParams& params) {
 
 LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
                                        const kernels::FramePyramid::Level& reference,
-                                       const Eigen::Isometry3d& T_reference_live) {
+                                       const Eigen::Isometry3d& T_reference_live,
+                                       const std::optional<PixelRect>& rect) {
   const Intrinsics& k = live.intrinsics;
   L::IcpRgbReduceParams p{};
   const Eigen::Matrix<double, 3, 4> T = T_reference_live.matrix().topRows<3>();
@@ -100,9 +101,14 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_deg * std::numbers::pi / 180.0));
   p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
   p.use_photometric = params_.use_photometric ? 1u : 0u;
+  const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
+  p.rect_x0 = static_cast<uint32_t>(r.x0);
+  p.rect_y0 = static_cast<uint32_t>(r.y0);
+  p.rect_width = static_cast<uint32_t>(r.width());
+  p.rect_height = static_cast<uint32_t>(r.height());
 
   // Enough workgroups to give every invocation a pixel, at most reduction_workgroups.
-  const uint32_t pixels = p.width * p.height;
+  const uint32_t pixels = p.rect_width * p.rect_height;
   const uint32_t groups = std::clamp<uint32_t>(gpu::group_count(pixels, ICP_RGB_GROUP_SIZE), 1u,
                                                static_cast<uint32_t>(params_.reduction_workgroups));
   auto cmd = stream.begin();
@@ -128,7 +134,8 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
 
 TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& live,
                               const std::vector<kernels::FramePyramid::Level>& reference,
-                              const Eigen::Isometry3d& T_reference_live_guess) {
+                              const Eigen::Isometry3d& T_reference_live_guess,
+                              const std::optional<PixelRect>& rect_level0) {
   check_levels(live, reference, "Tracker::track");
   if (live.size() > params_.iterations_per_level.size())
     throw Error("Tracker::track: " + std::to_string(live.size()) + " pyramid levels but iterations_per_level has " +
@@ -138,7 +145,11 @@ TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::Fr
   for (const auto& level : live) pixels.push_back(static_cast<long>(level.width) * level.height);
   return gauss_newton(
       pixels,
-      [&](int level, const Eigen::Isometry3d& T) { return compute_sums(stream, live[level], reference[level], T); },
+      [&](int level, const Eigen::Isometry3d& T) {
+        const auto& l = live[size_t(level)];
+        return compute_sums(stream, l, reference[size_t(level)], T,
+                            rect_level0 ? std::optional(rect_level0->at_level(level, l.width, l.height)) : std::nullopt);
+      },
       T_reference_live_guess, params_);
 }
 

@@ -5,11 +5,13 @@
 // with point-to-plane ICP (eq. 2) and photometric alignment (eq. 3), Gauss-Newton on a 4-level
 // pyramid, coarse to fine. One GPU dispatch per iteration reduces both linear systems
 // (shaders/icp_rgb_reduce.comp); the 6x6 solve runs on the host in double.
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
 
+#include "common/pixel_rect.h"
 #include "gpu/stream.h"
 #include "kernels/preprocess.h"
 #include "slam/tracker_solver.h"
@@ -30,15 +32,20 @@ class Tracker {
   // Levels beyond params().iterations_per_level.size() are not allowed; all levels given are used.
   // On failure (result.failed) the returned pose is the guess. Synchronous: waits for the GPU.
   // Throws cofusion::Error on mismatched levels, missing buffers or a non-finite guess.
+  // `rect_level0`: only live pixels in this rectangle of level 0 (and its counterpart on each
+  // level, PixelRect::at_level) take part; none = every pixel. The reference is read anywhere.
   TrackingResult track(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& live,
                        const std::vector<kernels::FramePyramid::Level>& reference,
-                       const Eigen::Isometry3d& T_reference_live_guess);
+                       const Eigen::Isometry3d& T_reference_live_guess,
+                       const std::optional<PixelRect>& rect_level0 = std::nullopt);
 
   // The sums of one Gauss-Newton iteration at one level, at pose T_reference_live (what track()
   // computes per iteration; exposed for the GPU-vs-CPU tests).
+  // `rect`: live pixels of this level that take part (none = all; clamped to the level).
   LinearSystemSums compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
                                 const kernels::FramePyramid::Level& reference,
-                                const Eigen::Isometry3d& T_reference_live);
+                                const Eigen::Isometry3d& T_reference_live,
+                                const std::optional<PixelRect>& rect = std::nullopt);
 
   const TrackerParams& params() const { return params_; }
   void set_params(const TrackerParams& params);

@@ -55,16 +55,17 @@ std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<ke
 }
 
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
-                              const TrackerParams& params) {
+                              const TrackerParams& params, const std::optional<PixelRect>& rect) {
   check_same_size(live, ref, "tracker reference");
   const Intrinsics& k = live.intrinsics;
   const int w = k.width, h = k.height;
   const Eigen::Matrix3d R = T.linear();
   const double max_d = params.max_correspondence_distance_m;
   const double min_cos = std::cos(params.max_normal_angle_deg * std::numbers::pi / 180.0);
+  const PixelRect area = rect ? rect->clamped(w, h) : PixelRect::full(w, h);
   LinearSystemSums sums;
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
+  for (int v = area.y0; v < area.y1; ++v)
+    for (int u = area.x0; u < area.x1; ++u) {
       const glm::vec4& v_live = live.vertex.at(u, v);
       if (!(v_live.w > 0)) continue;
       const glm::vec4& n_live = live.normal.at(u, v);

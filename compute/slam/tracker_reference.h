@@ -2,12 +2,14 @@
 // CPU reference of tracking: the per-iteration sums of shaders/icp_rgb_reduce.comp computed by a
 // plain loop in double over host copies of the maps, and a CPU-only track() that runs the same
 // Gauss-Newton loop (tracker_solver.h) on them. Written independently of the shader, for tests.
+#include <optional>
 #include <vector>
 
 #include <glm/vec2.hpp>
 #include <glm/vec4.hpp>
 
 #include "common/intrinsics.h"
+#include "common/pixel_rect.h"
 #include "gpu/stream.h"
 #include "kernels/image.h"
 #include "kernels/preprocess.h"
@@ -29,8 +31,10 @@ HostLevel download_level(gpu::Stream& stream, const kernels::FramePyramid::Level
 std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& levels);
 
 // The sums of one iteration at pose T_reference_live (same definition as the GPU reduction).
+// `rect`: only live pixels in it take part (none = all).
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& reference,
-                              const Eigen::Isometry3d& T_reference_live, const TrackerParams& params);
+                              const Eigen::Isometry3d& T_reference_live, const TrackerParams& params,
+                              const std::optional<PixelRect>& rect = std::nullopt);
 
 // Coarse-to-fine tracking on the CPU; same contract as Tracker::track.
 TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostLevel>& reference,

@@ -154,7 +154,9 @@ struct FuseParams {
   float max_radius_growth;    // merge position/normal only if live radius <= this * surfel radius
   uint use_labels;            // 1: only pixels whose label == label are fused
   uint label;
-  uint pad0;
+  // Only live pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are associated and fused (a
+  // model's labelled pixels); association entries and index-map rows outside are not touched.
+  uint rect_x0, rect_y0, rect_x1, rect_y1;
 };
 
 // ---- surfel_cleanup.comp: drop unstable / free-space-violating surfels, compact the rest ----
@@ -206,7 +208,9 @@ struct MaskVerticesParams {
   uint level0_width, level0_height;   // of the label map
   uint level;
   uint keep_mask;                     // bit k set: keep pixels labelled k
-  uint pad0, pad1;
+  // Only level pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are written; the rest of dst is
+  // left as it is (a model's tracking reads only its own rectangle).
+  uint rect_x0, rect_y0, rect_x1, rect_y1;
 };
 
 // ---- motion_residual.comp: per-pixel alignment cost of the live frame against one model -----
@@ -227,6 +231,9 @@ struct MotionResidualParams {
   float T_reference_live[12];  // row-major 3x4: reference-frame point = T * live-frame point
   float fx, fy, cx, cy;        // level-0 intrinsics (live and reference alike)
   uint width, height;
+  // Only live pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are written; the rest of the
+  // output is left as it is (the host treats it as "no geometry" for this model).
+  uint rect_x0, rect_y0, rect_x1, rect_y1;
 };
 
 // ---- test_fill.comp: used by the compute-core tests only -------------------------------------
@@ -267,6 +274,9 @@ struct IcpRgbReduceParams {
   float min_normal_cos;        // ICP: cos of the largest angle between R n_live and n_ref
   float max_intensity_diff;    // photometric: |r| above this (intensity / 255) is an outlier
   uint use_photometric;        // 0: the photometric sums stay zero
+  // Only live pixels in [rect_x0, rect_x0 + rect_width) x [rect_y0, rect_y0 + rect_height) take
+  // part (a model's own pixels; the rest of its masked live map is invalid anyway).
+  uint rect_x0, rect_y0, rect_width, rect_height;
 };
 
 

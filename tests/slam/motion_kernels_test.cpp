@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 #include <random>
@@ -70,6 +71,14 @@ class MotionKernelsTest : public GpuTest {
 std::unique_ptr<slam::MotionKernels> MotionKernelsTest::motion_;
 std::unique_ptr<kernels::Preprocessor> MotionKernelsTest::pre_;
 
+// The float whose bits are 0x7F7F7F7F, which the GPU tests fill buffers with (stale content).
+float stale_float() {
+  const uint32_t bits = 0x7F7F7F7Fu;
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
+}
+
 size_t count_differing(const Image<vec4>& a, const Image<vec4>& b) {
   size_t n = 0;
   for (size_t i = 0; i < a.size(); ++i) n += a.pixels[i] != b.pixels[i];
@@ -103,6 +112,16 @@ TEST_F(MotionKernelsTest, MaskVerticesMatchesReferenceAtEveryLevel) {
         const auto cpu = ref::mask_vertices(src, labels, level, keep);
         EXPECT_EQ(count_differing(download<vec4>(dst_buffer, w, h), cpu), 0u)
             << name(s) << " level " << level << " keep " << std::hex << keep;
+        // Restricted to a rectangle: the rest keeps its content.
+        const PixelRect rect{w / 4, h / 2, w / 4 + (w + 2) / 3, h + 2};
+        stream().run([&](gpu::CommandList& c) {
+          c.fill(dst_buffer, 0x7F7F7F7Fu);
+          c.barrier();
+          motion_->mask_vertices(c, src_buffer, dst_buffer, label_buffer, w, h, s.width, s.height, level, keep, rect);
+        });
+        const auto cpu_rect = ref::mask_vertices(src, labels, level, keep, Image<vec4>(w, h, vec4(stale_float())), rect);
+        EXPECT_EQ(count_differing(download<vec4>(dst_buffer, w, h), cpu_rect), 0u)
+            << name(s) << " level " << level << " keep " << std::hex << keep << " in a rectangle";
         if (s.width == 160 && level == 0 && keep == ((1u << 2) | (1u << 31))) {
           size_t kept = 0;
           for (const auto& v : cpu.pixels) kept += v != vec4(0.0f);
@@ -222,8 +241,10 @@ L::MotionResidualParams residual_params(const Intrinsics& k, const Eigen::Isomet
   slam::to_rows(T_reference_live, p.T_reference_live);
   p.fx = float(k.fx), p.fy = float(k.fy), p.cx = float(k.cx), p.cy = float(k.cy);
   p.width = uint32_t(k.width), p.height = uint32_t(k.height);
+  p.rect_x1 = p.width, p.rect_y1 = p.height;
   return p;
 }
+
 
 // Tolerance: 1e-5 m / 1e-5 relative on the distances and 1e-5 on intensities (a handful of float
 // operations, FMA contraction may differ); a projection on a pixel boundary may pick another
@@ -242,27 +263,38 @@ TEST_F(MotionKernelsTest, ResidualsMatchReference) {
       HostMaps reference = maps_of(reference_view, k);
       for (size_t i = 0; i < reference.normal.size(); i += 7) reference.normal.pixels[i].w = 0.0f;  // point-to-point
       for (size_t i = 3; i < reference.vertex.size(); i += 11) reference.vertex.pixels[i] = vec4(0.0f);
-      const auto p = residual_params(k, T_world_live);  // reference camera = world
       auto out = gpu::Buffer::create(ctx(), live.vertex.bytes(), "residuals");
       const auto lv = upload(live.vertex.pixels), li = upload(live.intensity.pixels);
       const auto rv = upload(reference.vertex.pixels), rn = upload(reference.normal.pixels);
       const auto ri = upload(reference.intensity.pixels);
-      stream().run([&](gpu::CommandList& c) {
-        c.fill(out, 0x7F7F7F7Fu);
-        c.barrier();
-        motion_->residuals(c, lv, li, rv, rn, ri, out, p);
-      });
-      const auto gpu = download<vec4>(out, s.width, s.height);
-      const auto cpu = ref::motion_residuals(live.vertex, live.intensity, reference.vertex, reference.normal,
-                                             reference.intensity, p);
-      size_t bad = 0;
-      for (size_t i = 0; i < cpu.size(); ++i) {
-        const vec4 g = gpu.pixels[i], c = cpu.pixels[i];
-        const auto near = [](float a, float b) { return std::abs(a - b) <= 1e-5f + 1e-5f * std::abs(b); };
-        bad += !(g.w == c.w && near(g.x, c.x) && near(g.y, c.y) && near(g.z, c.z));
-        if (s.width >= 160) ++seen[c.w == 0.0f ? 0 : c.w == 1.0f ? 1 : 2];
+      // The whole frame, then a model's rectangle (the rest must keep its stale content) and one
+      // reaching past the image.
+      for (const PixelRect rect : {PixelRect::full(s.width, s.height),
+                                   PixelRect{s.width / 3, s.height / 4, s.width / 3 + (s.width + 1) / 2, s.height},
+                                   PixelRect{s.width - 1, s.height / 2, s.width + 40, s.height + 3}}) {
+        auto p = residual_params(k, T_world_live);  // reference camera = world
+        p.rect_x0 = uint32_t(rect.x0), p.rect_y0 = uint32_t(rect.y0), p.rect_x1 = uint32_t(rect.x1),
+        p.rect_y1 = uint32_t(rect.y1);
+        stream().run([&](gpu::CommandList& c) {
+          c.fill(out, 0x7F7F7F7Fu);
+          c.barrier();
+          motion_->residuals(c, lv, li, rv, rn, ri, out, p);
+        });
+        const auto gpu = download<vec4>(out, s.width, s.height);
+        const auto cpu = ref::motion_residuals(live.vertex, live.intensity, reference.vertex, reference.normal,
+                                               reference.intensity, p, Image<vec4>(s.width, s.height, vec4(stale_float())));
+        const PixelRect inside = rect.clamped(s.width, s.height);
+        size_t bad = 0, stale = 0;
+        for (size_t i = 0; i < cpu.size(); ++i) {
+          const vec4 g = gpu.pixels[i], c = cpu.pixels[i];
+          const auto near = [](float a, float b) { return std::abs(a - b) <= 1e-5f + 1e-5f * std::abs(b); };
+          bad += !(g.w == c.w && near(g.x, c.x) && near(g.y, c.y) && near(g.z, c.z));
+          stale += c == vec4(stale_float());
+          if (s.width >= 160 && rect == PixelRect::full(s.width, s.height)) ++seen[c.w == 0.0f ? 0 : c.w == 1.0f ? 1 : 2];
+        }
+        EXPECT_LE(bad, cpu.size() / 500) << name(s) << " rect x " << rect.x0 << ".." << rect.x1;
+        EXPECT_EQ(stale, cpu.size() - size_t(inside.area())) << name(s) << " rect x " << rect.x0 << ".." << rect.x1;
       }
-      EXPECT_LE(bad, cpu.size() / 500) << name(s);
     }
   }
   EXPECT_GT(seen[0], 1000) << "no live holes exercised";

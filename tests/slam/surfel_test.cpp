@@ -234,7 +234,12 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
     auto surfels = make_surfels(s, k, 4, T_camera_model.inverse());
     const uint32_t capacity = uint32_t(surfels.size() + live.labels.size());
 
-    for (uint32_t use_labels : {0u, 1u}) {
+    // Every pixel; the pixels labelled 1; those of them in a rectangle (a model's region).
+    for (int variant = 0; variant < 3; ++variant) {
+      const uint32_t use_labels = variant > 0 ? 1u : 0u;
+      const PixelRect rect = variant == 2 ? PixelRect{s.width / 3, s.height / 5, s.width / 3 + (s.width + 1) / 2, s.height + 4}
+                                          : PixelRect::full(s.width, s.height);
+      const std::string what = name(s) + (variant == 0 ? "" : variant == 1 ? " labelled" : " labelled, in a rectangle");
       const auto sp = splat_params(k, T_camera_model, surfels.size(), 4);
       const auto grid = ref::splat(surfels, sp);
       L::FuseParams fp{};
@@ -244,6 +249,8 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       fp.grid_scale = 4, fp.surfel_count = uint32_t(surfels.size()), fp.capacity = capacity, fp.frame = 101;
       fp.max_depth_diff_rel = 0.03f, fp.min_normal_dot = std::cos(20.0f * float(M_PI) / 180.0f);
       fp.max_radius_growth = 1.5f, fp.use_labels = use_labels, fp.label = 1;
+      fp.rect_x0 = uint32_t(rect.x0), fp.rect_y0 = uint32_t(rect.y0), fp.rect_x1 = uint32_t(rect.x1),
+      fp.rect_y1 = uint32_t(rect.y1);
 
       std::vector<Surfel> storage = surfels;
       storage.resize(capacity);
@@ -258,6 +265,7 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
                                            upload(live.labels)};
       stream().run([&](gpu::CommandList& c) {
         c.fill(b.claim, 0xFFFFFFFFu);
+        c.fill(b.assoc, FUSE_SKIP_PIXEL);  // outside the rectangle nothing may be written
         c.barrier();
         pipes_->associate(c, b, fp);
       });
@@ -269,9 +277,9 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
         associated += cpu_assoc.assoc[i] < FUSE_SKIP_PIXEL;
       }
       // Tolerance: depth/normal tests on rounding boundaries may flip for at most 0.2% of pixels.
-      EXPECT_LE(differ, gpu_assoc.size() / 500) << name(s);
+      EXPECT_LE(differ, gpu_assoc.size() / 500) << what;
       if (s.width >= 160) {
-        EXPECT_GT(associated, gpu_assoc.size() / 4) << "test data associates too little";
+        EXPECT_GT(associated, size_t(rect.clamped(s.width, s.height).area()) / 4) << "test data associates too little";
       }
 
       // Update from the CPU association on both sides, so the comparison isolates the update.
@@ -283,19 +291,19 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       auto cpu_surfels = surfels;
       ref::update(cpu_surfels, cpu_assoc, live, fp);
       const uint32_t gpu_count = download<uint32_t>(b.counter, 1)[0];
-      ASSERT_EQ(gpu_count, cpu_surfels.size()) << name(s);
+      ASSERT_EQ(gpu_count, cpu_surfels.size()) << what;
       auto gpu_surfels = download<Surfel>(b.surfels, gpu_count);
       int bad = 0;
       // Tolerance 2e-5 relative: weighted averages and a normalisation in float.
       for (size_t i = 0; i < surfels.size(); ++i) bad += !same_surfel(gpu_surfels[i], cpu_surfels[i], 2e-5f);
-      EXPECT_EQ(bad, 0) << "updated surfels " << name(s);
+      EXPECT_EQ(bad, 0) << "updated surfels " << what;
       std::vector<Surfel> gpu_new(gpu_surfels.begin() + long(surfels.size()), gpu_surfels.end());
       std::vector<Surfel> cpu_new(cpu_surfels.begin() + long(surfels.size()), cpu_surfels.end());
       sort_by_position(gpu_new);
       sort_by_position(cpu_new);
       bad = 0;
       for (size_t i = 0; i < cpu_new.size(); ++i) bad += !same_surfel(gpu_new[i], cpu_new[i], 2e-5f);
-      EXPECT_EQ(bad, 0) << "new surfels " << name(s);
+      EXPECT_EQ(bad, 0) << "new surfels " << what;
 
       // Cleanup of the CPU result, on both sides, against a live depth with free space in front
       // of part of the model (the scene pushed 30 cm back on the left).
@@ -373,6 +381,46 @@ TEST_F(SurfelKernels, FusedFramePredictsItselfAndRefusionAddsConfidence) {
   double confidence_after = 0;
   for (const auto& sf : model.download(stream())) confidence_after += sf.confidence;
   EXPECT_GT(confidence_after, confidence_before * 1.8);
+}
+
+// Fusing a model's labelled pixels through their bounding rectangle gives the model that fusing
+// them over the whole image gives (the index map is cleared only in the rectangle's rows, so the
+// second fusion also checks that nothing outside is read).
+TEST_F(SurfelKernels, FusionInTheLabelsRectangleEqualsWholeImageFusion) {
+  const Size s{160, 120};
+  const Intrinsics k = intrinsics_for(s);
+  const auto depth = scene_depth(s, k);
+  std::vector<uint8_t> rgb(size_t(s.width) * s.height * 3);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = uint8_t((i * 37) % 251);
+  kernels::PreprocessParams pp;
+  pp.bilateral = false;
+  auto frame = kernels::FramePyramid::allocate(ctx(), k, 3, "live");
+  frame.upload(stream(), depth.pixels.data(), rgb.data());
+  stream().run([&](gpu::CommandList& c) { pre_->record_frame(c, frame, kernels::FramePyramid::kUploadMetresPerUnit, pp); });
+  const PixelRect rect{37, 21, 101, 90};
+  std::vector<uint32_t> labels(size_t(s.width) * s.height, 0u);
+  for (int y = rect.y0; y < rect.y1; ++y)
+    for (int x = rect.x0; x < rect.x1; ++x) labels[size_t(y) * s.width + x] = (x + y) % 5 == 0 ? 0u : 3u;
+  auto label_buffer = upload(labels, "labels");
+
+  slam::FusionParams fusion;
+  const auto T0 = test_pose(0.1, {0.2, 0.1, -0.3});
+  const auto T1 = test_pose(0.004, {0.1, 1, 0}) * T0;  // a little motion: association and new surfels
+  slam::SurfelModel whole(ctx(), 1, 1024), in_rect(ctx(), 2, 1024);
+  for (auto* m : {&whole, &in_rect}) pipes_->fuse(stream(), *m, frame, T0, 0, fusion);
+  pipes_->fuse(stream(), whole, frame, T1, 1, fusion, label_buffer, 3u);
+  pipes_->fuse(stream(), in_rect, frame, T1, 1, fusion, label_buffer, 3u, rect);
+  auto a = whole.download(stream()), b = in_rect.download(stream());
+  ASSERT_EQ(a.size(), b.size());
+  sort_by_position(a);
+  sort_by_position(b);
+  int bad = 0, fused = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    bad += !same_surfel(a[i], b[i], 1e-6f);
+    fused += a[i].last_seen_frame == 1;
+  }
+  EXPECT_EQ(bad, 0);
+  EXPECT_GT(fused, rect.area() / 2) << "the second fusion must touch the rectangle's pixels";
 }
 
 TEST_F(SurfelKernels, ModelTooLargeForTheDeviceFailsWithItsId) {

@@ -233,7 +233,40 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     // 2e-3: one flipped pixel of the 851 at 37x23 is 1.2e-3.
     expect_sums_near(gpu.icp, cpu.icp, 2e-3, what + " icp");
     expect_sums_near(gpu.rgb, cpu.rgb, 2e-3, what + " rgb");
+
+    // Restricted to a rectangle of live pixels (a model's region): an inner one, one reaching
+    // past the image (clamped), a single pixel and an empty one.
+    const auto live_host = ref::download_level(stream(), live.levels[0]);
+    const auto reference_host = ref::download_level(stream(), reference.levels[0]);
+    for (const PixelRect rect : {PixelRect{s.w / 4, s.h / 3, s.w / 4 + (s.w + 1) / 2, s.h / 3 + (s.h + 1) / 2},
+                                 PixelRect{s.w / 2, s.h / 2, s.w + 5, s.h + 7}, PixelRect{s.w / 2, s.h / 2, s.w / 2 + 1, s.h / 2 + 1},
+                                 PixelRect{3, 3, 3, 9}}) {
+      const std::string in = what + " rect [" + std::to_string(rect.x0) + "," + std::to_string(rect.x1) + ")x[" +
+                             std::to_string(rect.y0) + "," + std::to_string(rect.y1) + ")";
+      const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, rect);
+      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, params, rect);
+      EXPECT_EQ(g.valid_live_pixels, c.valid_live_pixels) << in;
+      EXPECT_LE(c.valid_live_pixels, cpu.valid_live_pixels) << in;
+      expect_sums_near(g.icp, c.icp, 2e-3, in + " icp");
+      expect_sums_near(g.rgb, c.rgb, 2e-3, in + " rgb");
+    }
+    const slam::LinearSystemSums none =
+        tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, PixelRect{});
+    EXPECT_EQ(none.valid_live_pixels, 0) << what;
+    EXPECT_EQ(none.icp[28], 0) << what;
   }
+}
+
+TEST(PixelRectTest, LevelsClampAndCoverTheSubsampledPixels) {
+  const PixelRect r{5, 3, 11, 10};
+  EXPECT_EQ(r.at_level(0, 640, 480), r);
+  // Level-1 pixel x reads level-0 pixel 2x: x in [2, 6) covers 2x in {4..10}, a superset of [5, 11).
+  EXPECT_EQ(r.at_level(1, 320, 240), (PixelRect{2, 1, 6, 5}));
+  EXPECT_EQ(r.at_level(2, 160, 120), (PixelRect{1, 0, 3, 3}));
+  EXPECT_EQ((PixelRect{600, 400, 700, 500}).at_level(1, 320, 240), (PixelRect{300, 200, 320, 240}));
+  EXPECT_TRUE((PixelRect{700, 0, 800, 10}).clamped(640, 480).empty());
+  EXPECT_TRUE(PixelRect{}.at_level(2, 160, 120).empty());
+  EXPECT_EQ((PixelRect{10, 10, 20, 20}).grown(3), (PixelRect{7, 7, 23, 23}));
 }
 
 // Frame-to-frame odometry on the noise-free room: errors far below the bounds come from depth
