@@ -206,27 +206,27 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   const float* r = m.residuals_host.data();
   const size_t n = slots_.size();
   const PixelRect& rect = m.residual_rect;
-  const int width = intrinsics_.width;
-  costs.resize(n);
+  const size_t width = size_t(intrinsics_.width);
+  // Outside its residual rectangle the model has no geometry; only the rectangle is read.
+  costs.assign(n, kNaN);
   const MotionCostParams& p = params_.costs;
   const bool background = m.id == 0;
   const auto sigma = [](float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); };
   const float z_ref = p.noise_reference_depth_m;
   const float sigma_ref = sigma(z_ref);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t i = range.begin(); i < range.end(); ++i) {
-      const float* v = r + 4 * i;  // (point-to-plane m, live z - predicted z m, |dI|, status)
-      const int x = int(i % size_t(width)), y = int(i / size_t(width));
-      if (x < rect.x0 || x >= rect.x1 || y < rect.y0 || y >= rect.y1 || v[3] != 1.0f) {
-        costs[i] = kNaN;
-      } else if (background && v[1] > p.revealed_margin_m) {
-        costs[i] = p.revealed_cost_m;
-      } else {
-        const float z = depth_m[i];
-        const float scale = z_ref > 0.0f && z > z_ref ? sigma_ref / sigma(z) : 1.0f;
-        costs[i] = std::min(v[0] * scale + p.photometric_m * v[2], p.max_cost_m);
+  tbb::parallel_for(tbb::blocked_range<int>(rect.y0, rect.y1, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (size_t i = size_t(y) * width + size_t(rect.x0); i < size_t(y) * width + size_t(rect.x1); ++i) {
+        const float* v = r + 4 * i;  // (point-to-plane m, live z - predicted z m, |dI|, status)
+        if (v[3] != 1.0f) continue;  // no live vertex, or no model geometry there: NaN
+        if (background && v[1] > p.revealed_margin_m) {
+          costs[i] = p.revealed_cost_m;
+        } else {
+          const float z = depth_m[i];
+          const float scale = z_ref > 0.0f && z > z_ref ? sigma_ref / sigma(z) : 1.0f;
+          costs[i] = std::min(v[0] * scale + p.photometric_m * v[2], p.max_cost_m);
+        }
       }
-    }
   });
 }
 
