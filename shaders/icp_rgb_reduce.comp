@@ -105,7 +105,9 @@ void main() {
           const float inv_z = 1.0 / q.z;
           const vec3 dI_dq = vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z,
                                   -(g.x * p.fx * q.x + g.y * p.fy * q.y) * inv_z * inv_z);
-          accumulate(rgb, dI_dq, cross(q, dI_dq), r);
+          // Huber weight, applied as sqrt(w) to J and r: sums of w J^T J, w J^T r, w r^2.
+          const float sw = p.rgb_huber_delta > 0.0 && abs(r) > p.rgb_huber_delta ? sqrt(p.rgb_huber_delta / abs(r)) : 1.0;
+          accumulate(rgb, sw * dI_dq, sw * cross(q, dI_dq), sw * r);
         }
       }
     }

@@ -72,7 +72,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const json& p = root["tracker"];
     const std::string where = file + ": tracker";
     check_keys(p, {"iterations_per_level", "max_correspondence_distance_m", "max_normal_angle_deg", "use_photometric",
-                   "photometric_weight", "max_intensity_diff", "min_correspondences", "min_inlier_ratio",
+                   "photometric_weight", "max_intensity_diff", "photometric_huber_k", "min_correspondences", "min_inlier_ratio",
                    "min_eigenvalue_ratio", "reduction_workgroups", "converged_translation_m",
                    "converged_rotation_rad"},
                where);
@@ -83,6 +83,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "use_photometric", c.use_photometric, where);
     read(p, "photometric_weight", c.photometric_weight, where);
     read(p, "max_intensity_diff", c.max_intensity_diff, where);
+    read(p, "photometric_huber_k", c.photometric_huber_k, where);
     read(p, "min_correspondences", c.min_correspondences, where);
     read(p, "min_inlier_ratio", c.min_inlier_ratio, where);
     read(p, "min_eigenvalue_ratio", c.min_eigenvalue_ratio, where);
@@ -95,13 +96,14 @@ PipelineConfig load_config(const std::filesystem::path& path) {
   if (root.contains("fusion")) {
     const json& p = root["fusion"];
     const std::string where = file + ": fusion";
-    check_keys(p, {"index_map_scale", "index_map_footprint", "max_depth_diff_rel", "max_normal_angle_deg",
+    check_keys(p, {"index_map_scale", "index_map_footprint", "index_map_offset_penalty_rel", "max_depth_diff_rel", "max_normal_angle_deg",
                    "max_radius_growth", "stable_confidence", "unstable_window_frames", "free_space_margin_rel",
                    "free_space_penalty", "initial_capacity"},
                where);
     auto& c = config.slam.fusion;
     read(p, "index_map_scale", c.index_map_scale, where);
     read(p, "index_map_footprint", c.index_map_footprint, where);
+    read(p, "index_map_offset_penalty_rel", c.index_map_offset_penalty_rel, where);
     read(p, "max_depth_diff_rel", c.max_depth_diff_rel, where);
     read(p, "max_normal_angle_deg", c.max_normal_angle_deg, where);
     read(p, "max_radius_growth", c.max_radius_growth, where);

@@ -12,7 +12,8 @@ static_assert(sizeof(IntensityParams) == 8);
 static_assert(sizeof(VertexNormalParams) == 24 && offsetof(VertexNormalParams, cy) == 20);
 static_assert(sizeof(GradientParams) == 8);
 static_assert(sizeof(TestFillParams) == 8);
-static_assert(sizeof(SplatParams) == 96 && offsetof(SplatParams, fx) == 48 && offsetof(SplatParams, footprint_px) == 92);
+static_assert(sizeof(SplatParams) == 100 && offsetof(SplatParams, fx) == 48 && offsetof(SplatParams, footprint_px) == 92 &&
+              offsetof(SplatParams, offset_penalty_rel) == 96);
 static_assert(sizeof(ResolveParams) == 80 && offsetof(ResolveParams, width) == 64);
 static_assert(sizeof(FuseParams) == 124 && offsetof(FuseParams, fx) == 48 && offsetof(FuseParams, label) == 104 &&
               offsetof(FuseParams, rect_x0) == 108);
@@ -28,7 +29,7 @@ static_assert(sizeof(MotionResidualParams) == 88 && offsetof(MotionResidualParam
 static_assert(sizeof(RemoveRegionParams) <= 128 && sizeof(MaskVerticesParams) <= 128 &&
               sizeof(MotionResidualParams) <= 128);
 static_assert(sizeof(Surfel) == 48 && offsetof(Surfel, nx) == 16 && offsetof(Surfel, colour_rgba8) == 32);
-static_assert(sizeof(IcpRgbReduceParams) == 104 && offsetof(IcpRgbReduceParams, fx) == 48 &&
+static_assert(sizeof(IcpRgbReduceParams) == 108 && offsetof(IcpRgbReduceParams, rgb_huber_delta) == 104 && offsetof(IcpRgbReduceParams, fx) == 48 &&
               offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, use_photometric) == 84 &&
               offsetof(IcpRgbReduceParams, rect_x0) == 88 && sizeof(IcpRgbReduceParams) <= 128);
 static_assert(ICP_RGB_OFFSET_VALID >= ICP_RGB_OFFSET_ICP + ICP_RGB_TERM_VALUES && ICP_RGB_OFFSET_RGB > ICP_RGB_OFFSET_VALID &&

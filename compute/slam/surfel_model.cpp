@@ -121,6 +121,7 @@ void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, c
   sp.recent_window_frames = params.recent_window_frames;
   sp.grid_scale = 1;
   sp.footprint_px = uint32_t(params.footprint_px);
+  sp.offset_penalty_rel = params.offset_penalty_rel;
   cmd.fill(out.depth_index, 0xFFFFFFFFu);
   cmd.barrier();
   splat(cmd, model.surfels(), out.depth_index, sp);
@@ -223,6 +224,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   sp.recent_window_frames = 0;
   sp.grid_scale = uint32_t(S);
   sp.footprint_px = uint32_t(params.index_map_footprint);
+  sp.offset_penalty_rel = params.index_map_offset_penalty_rel;
 
   L::FuseParams fp{};
   std::copy(T, T + 12, fp.T_camera_model);

@@ -11,6 +11,11 @@ struct PredictionParams {
   int recent_window_frames = 1 << 30;
   // Half-size in pixels of the square a surfel covers when its disc is larger than a pixel.
   int footprint_px = 1;
+  // Within that square a pixel takes the surfel whose plane its ray meets nearest, plus this
+  // fraction of the depth per squared pixel of distance from the surfel's projected centre (2 mm
+  // per pixel^2 at 1 m): surfels of one surface then win the pixels nearest to them, while a
+  // surface a centimetre or more in front still hides one behind.
+  float offset_penalty_rel = 0.002f;
 };
 
 struct FusionParams {
@@ -20,6 +25,9 @@ struct FusionParams {
   // larger than a cell. With one cell per surfel, about a third of the pixels find no candidate
   // although a surfel covers them, and spawn duplicates that the window then has to remove.
   int index_map_footprint = 1;
+  // ... with the prediction's nearest-surfel rule (PredictionParams::offset_penalty_rel; its
+  // distance is in full-resolution pixels).
+  float index_map_offset_penalty_rel = 0.002f;
   // A live pixel matches a surfel within max_depth_diff_rel * depth + 5 mm ...
   float max_depth_diff_rel = 0.03f;
   // ... whose normal is within this angle of the live normal. Generous: normals of real sensor

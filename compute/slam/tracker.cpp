@@ -85,7 +85,7 @@ void Tracker::set_params(const TrackerParams& params) {
 LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
                                        const kernels::FramePyramid::Level& reference,
                                        const Eigen::Isometry3d& T_reference_live,
-                                       const std::optional<PixelRect>& rect) {
+                                       const std::optional<PixelRect>& rect, double rgb_huber_delta) {
   const Intrinsics& k = live.intrinsics;
   L::IcpRgbReduceParams p{};
   const Eigen::Matrix<double, 3, 4> T = T_reference_live.matrix().topRows<3>();
@@ -100,6 +100,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.max_distance_m = static_cast<float>(params_.max_correspondence_distance_m);
   p.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_deg * std::numbers::pi / 180.0));
   p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
+  p.rgb_huber_delta = static_cast<float>(rgb_huber_delta);
   p.use_photometric = params_.use_photometric ? 1u : 0u;
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
   p.rect_x0 = static_cast<uint32_t>(r.x0);
@@ -145,10 +146,11 @@ TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::Fr
   for (const auto& level : live) pixels.push_back(static_cast<long>(level.width) * level.height);
   return gauss_newton(
       pixels,
-      [&](int level, const Eigen::Isometry3d& T) {
+      [&](int level, const Eigen::Isometry3d& T, double rgb_huber_delta) {
         const auto& l = live[size_t(level)];
         return compute_sums(stream, l, reference[size_t(level)], T,
-                            rect_level0 ? std::optional(rect_level0->at_level(level, l.width, l.height)) : std::nullopt);
+                            rect_level0 ? std::optional(rect_level0->at_level(level, l.width, l.height)) : std::nullopt,
+                            rgb_huber_delta);
       },
       T_reference_live_guess, params_);
 }

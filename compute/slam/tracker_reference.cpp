@@ -55,7 +55,8 @@ std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<ke
 }
 
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
-                              const TrackerParams& params, const std::optional<PixelRect>& rect) {
+                              const TrackerParams& params, const std::optional<PixelRect>& rect,
+                              double rgb_huber_delta) {
   check_same_size(live, ref, "tracker reference");
   const Intrinsics& k = live.intrinsics;
   const int w = k.width, h = k.height;
@@ -109,9 +110,11 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         // Chain rule: dI/dq = (gx, gy) * d pi(q) / dq, pi(q) = (fx qx/qz + cx, fy qy/qz + cy).
         const double z = q.z();
         const Eigen::Vector3d dI_dq(gx * k.fx / z, gy * k.fy / z, -(gx * k.fx * q.x() + gy * k.fy * q.y()) / (z * z));
+        // Huber weight, applied as sqrt(w) to J and r: sums of w J^T J, w J^T r, w r^2.
+        const double sw = rgb_huber_delta > 0 && std::abs(r) > rgb_huber_delta ? std::sqrt(rgb_huber_delta / std::abs(r)) : 1.0;
         Vector6d J;
-        J << dI_dq, q.cross(dI_dq);
-        add(sums.rgb, J, r);
+        J << sw * dI_dq, sw * q.cross(dI_dq);
+        add(sums.rgb, J, sw * r);
       }
     }
   return sums;
@@ -128,7 +131,10 @@ TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostL
   std::vector<long> pixels;
   for (const auto& level : live) pixels.push_back(static_cast<long>(level.intrinsics.width) * level.intrinsics.height);
   return gauss_newton(
-      pixels, [&](int level, const Eigen::Isometry3d& T) { return compute_sums(live[level], reference[level], T, params); },
+      pixels,
+      [&](int level, const Eigen::Isometry3d& T, double rgb_huber_delta) {
+        return compute_sums(live[level], reference[level], T, params, std::nullopt, rgb_huber_delta);
+      },
       guess, params);
 }
 

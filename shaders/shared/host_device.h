@@ -103,6 +103,10 @@ struct SplatParams {
   int recent_window_frames;
   uint grid_scale;            // 1 for prediction, 4 for fusion's supersampled index map
   uint footprint_px;          // half-size of the square each surfel covers (0 = one pixel)
+  // Per covered cell the key depth is where the cell's ray meets the surfel's disc plane, plus
+  // offset_penalty_rel * depth * (cell centre's distance in pixels from the surfel's projection)^2:
+  // among surfels of one surface the nearest in the image wins, not the nearest to the camera.
+  float offset_penalty_rel;
 };
 
 #define RESOLVE_BINDING_SURFELS 0
@@ -277,6 +281,9 @@ struct IcpRgbReduceParams {
   // Only live pixels in [rect_x0, rect_x0 + rect_width) x [rect_y0, rect_y0 + rect_height) take
   // part (a model's own pixels; the rest of its masked live map is invalid anyway).
   uint rect_x0, rect_y0, rect_width, rect_height;
+  // Photometric: residuals beyond this (intensity / 255) get Huber weight delta / |r| (the sums
+  // then hold w J^T J, w J^T r, w r^2); 0 = none.
+  float rgb_huber_delta;
 };
 
 

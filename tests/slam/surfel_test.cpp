@@ -126,6 +126,7 @@ L::SplatParams splat_params(const Intrinsics& k, const Eigen::Isometry3d& T_came
   p.recent_window_frames = 30;
   p.grid_scale = scale;
   p.footprint_px = 1;
+  p.offset_penalty_rel = 0.002f;
   return p;
 }
 
@@ -431,6 +432,77 @@ TEST_F(SurfelKernels, ModelTooLargeForTheDeviceFailsWithItsId) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("model 7"));
   }
+}
+
+// On a slanted surface every covered pixel must take the surfel whose projection is nearest to it
+// (keyed by the surfel centre's depth, the nearer side's surfels won every footprint and shifted
+// the predicted colours by a pixel), while a surface 3 cm in front still hides the one behind.
+TEST(SplatReference, SlantedSurfaceGivesEachPixelItsNearestSurfelAndKeepsOcclusion) {
+  const int w = 160, h = 120;
+  const double fx = 150, fy = 150, cx = 79.5, cy = 59.5;
+  // Plane through (0, 0, 1) m tilted 55 degrees about the x axis (a table seen from above).
+  const Eigen::Vector3d n = Eigen::Vector3d(0, -std::sin(55 * M_PI / 180), -std::cos(55 * M_PI / 180)).normalized();
+  const Eigen::Vector3d p0(0, 0, 1);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> offset(-0.45, 0.45);
+  std::vector<Surfel> surfels;
+  std::vector<Eigen::Vector2d> projected;
+  auto add = [&](double u, double v, const Eigen::Vector3d& normal, const Eigen::Vector3d& point) {
+    const Eigen::Vector3d ray((u - cx) / fx, (v - cy) / fy, 1);
+    const Eigen::Vector3d x = ray * (normal.dot(point) / normal.dot(ray));
+    Surfel s{};
+    s.px = float(x.x()), s.py = float(x.y()), s.pz = float(x.z());
+    s.nx = float(normal.x()), s.ny = float(normal.y()), s.nz = float(normal.z());
+    s.confidence = 10;
+    s.radius_m = float(1.41 * x.z() / fx / std::max(std::abs(normal.dot(ray.normalized())), 0.3));
+    s.colour_rgba8 = 0xFFFFFFFFu;
+    surfels.push_back(s);
+    projected.emplace_back(fx * s.px / s.pz + cx, fy * s.py / s.pz + cy);
+  };
+  for (int v = 0; v < h; v += 1)
+    for (int u = 0; u < w; u += 1) add(u + offset(rng), v + offset(rng), n, p0);
+  const size_t plane_surfels = surfels.size();
+  // A parallel patch 3 cm in front of the plane (n faces the camera); its surfels are a third as
+  // dense, so the plane's surfels are nearer in the image to most pixels the patch covers.
+  for (int v = 45; v < 75; v += 3)
+    for (int u = 65; u < 95; u += 3) add(u, v, n, p0 + 0.03 * n);
+
+  L::SplatParams p{};
+  const float T[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  std::copy(T, T + 12, p.T_camera_model);
+  p.fx = float(fx), p.fy = float(fy), p.cx = float(cx), p.cy = float(cy);
+  p.width = w, p.height = h;
+  p.surfel_count = uint32_t(surfels.size());
+  p.recent_window_frames = 1 << 30;
+  p.grid_scale = 1;
+  p.footprint_px = 1;
+  p.offset_penalty_rel = slam::PredictionParams{}.offset_penalty_rel;
+  const auto grid = ref::splat(surfels, p);
+
+  int plane_pixels = 0, nearest = 0, patch_pixels = 0, patch_wins = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const uint64_t key = grid[size_t(y) * w + x];
+      if (x >= 67 && x < 90 && y >= 47 && y < 70) {  // inside the patch's footprint
+        ++patch_pixels;
+        patch_wins += key != ~uint64_t{0} && (key & 0xFFFFFFFFu) >= plane_surfels;
+        continue;
+      }
+      if (x < 2 || y < 2 || x >= w - 2 || y >= h - 2 || (x >= 60 && x < 97 && y >= 40 && y < 77)) continue;
+      ASSERT_NE(key, ~uint64_t{0}) << x << "," << y;
+      const uint32_t winner = uint32_t(key & 0xFFFFFFFFu);
+      ASSERT_LT(winner, plane_surfels);
+      // The nearest plane surfel is one of the 5x5 neighbourhood's (one per pixel, offset < 0.5).
+      double best = 1e9;
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx)
+          best = std::min(best, (projected[size_t(y + dy) * w + size_t(x + dx)] - Eigen::Vector2d(x, y)).norm());
+      ++plane_pixels;
+      nearest += (projected[winner] - Eigen::Vector2d(x, y)).norm() <= best + 1e-4;
+    }
+  EXPECT_GT(plane_pixels, 10000);
+  EXPECT_GE(nearest, plane_pixels * 99 / 100) << nearest << " of " << plane_pixels;
+  EXPECT_EQ(patch_wins, patch_pixels);
 }
 
 }  // namespace

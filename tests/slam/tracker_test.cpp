@@ -254,6 +254,22 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
         tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, PixelRect{});
     EXPECT_EQ(none.valid_live_pixels, 0) << what;
     EXPECT_EQ(none.icp[28], 0) << what;
+
+    // Huber-weighted photometric sums, with a delta below the RMS residual so that many residuals
+    // are down-weighted: the weighted sum r^2 must drop while the count and the ICP term stay.
+    if (cpu.rgb[28] > 0) {
+      const double delta = 0.5 * std::sqrt(cpu.rgb[27] / cpu.rgb[28]);
+      const slam::LinearSystemSums g =
+          tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, std::nullopt, delta);
+      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, params, std::nullopt, delta);
+      expect_sums_near(g.icp, c.icp, 2e-3, what + " huber icp");
+      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " huber rgb");
+      EXPECT_EQ(c.icp, cpu.icp) << what;
+      EXPECT_EQ(c.rgb[28], cpu.rgb[28]) << what;
+      if (s.w >= 160) {
+        EXPECT_LT(c.rgb[27], 0.8 * cpu.rgb[27]) << what;
+      }
+    }
   }
 }
 
