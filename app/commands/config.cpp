@@ -124,13 +124,14 @@ PipelineConfig load_config(const std::filesystem::path& path) {
   if (root.contains("costs")) {
     const json& p = root["costs"];
     const std::string where = file + ": costs";
-    check_keys(p, {"photometric_m", "revealed_margin_m", "revealed_cost_m", "max_cost_m", "noise_reference_depth_m",
+    check_keys(p, {"photometric_m", "photometric_reference_rms", "revealed_margin_m", "revealed_cost_m", "max_cost_m", "noise_reference_depth_m",
                    "max_explained_cost_m", "object_margin_px"},
                where);
     read(p, "noise_reference_depth_m", config.costs.noise_reference_depth_m, where);
     read(p, "max_explained_cost_m", config.costs.max_explained_cost_m, where);
     auto& c = config.costs;
     read(p, "photometric_m", c.photometric_m, where);
+    read(p, "photometric_reference_rms", c.photometric_reference_rms, where);
     read(p, "revealed_margin_m", c.revealed_margin_m, where);
     read(p, "revealed_cost_m", c.revealed_cost_m, where);
     read(p, "max_cost_m", c.max_cost_m, where);

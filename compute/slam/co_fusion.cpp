@@ -214,6 +214,11 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   const auto sigma = [](float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); };
   const float z_ref = p.noise_reference_depth_m;
   const float sigma_ref = sigma(z_ref);
+  // Photometric residuals in units of this frame's photometric noise (the background's RMS
+  // residual after tracking): motion blur and exposure changes raise every pixel's residual.
+  const double rgb_rms = models_.front()->tracking.rgb_rms;
+  const float photometric_m =
+      rgb_rms > p.photometric_reference_rms ? float(p.photometric_m * p.photometric_reference_rms / rgb_rms) : p.photometric_m;
   tbb::parallel_for(tbb::blocked_range<int>(rect.y0, rect.y1, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (size_t i = size_t(y) * width + size_t(rect.x0); i < size_t(y) * width + size_t(rect.x1); ++i) {
@@ -224,7 +229,7 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
         } else {
           const float z = depth_m[i];
           const float scale = z_ref > 0.0f && z > z_ref ? sigma_ref / sigma(z) : 1.0f;
-          costs[i] = std::min(v[0] * scale + p.photometric_m * v[2], p.max_cost_m);
+          costs[i] = std::min(v[0] * scale + photometric_m * v[2], p.max_cost_m);
         }
       }
   });
