@@ -86,11 +86,11 @@ TEST(RunCommand, StaticSyntheticRoomTracksWithinFiveMillimetres) {
   }
 }
 
-// The single-model issue asks for <= 6 mm here. The background-only system measured 5.9-6.2 mm;
-// the multi-object pipeline (segmentation on: pixels the background cannot explain are neither
-// tracked nor fused) measures 6.3-7.1 mm over runs (GPU atomic ordering). The test holds the line
-// at 7.5 mm against regressions while that gap stays open (see the issue notes).
-TEST(RunCommand, TumFr2DeskWithinSevenAndAHalfMillimetresSlow) {
+// The single-model issue asks for <= 6 mm here. With the nearest-surfel prediction and the robust
+// photometric term the pipeline measures 6.3 mm on lavapipe (6.6 mm background-only); earlier
+// builds varied by up to 0.8 mm between runs (GPU atomic ordering). The test holds the line at
+// 7 mm against regressions while that gap stays open (see the issue notes).
+TEST(RunCommand, TumFr2DeskWithinSevenMillimetresSlow) {
   const auto data = data_dir("tum_fr2_desk_50");
   if (!data) {
     GTEST_SKIP() << "TUM fr2/desk recording not found (set COFUSION_DATA)";
@@ -101,7 +101,7 @@ TEST(RunCommand, TumFr2DeskWithinSevenAndAHalfMillimetresSlow) {
   expect_complete_output(out, 50);
   const double ate = camera_ate_m(read_tum_trajectory(*data / "groundtruth.txt"), out);
   RecordProperty("camera_ate_m", std::to_string(ate));
-  EXPECT_LE(ate, 0.0075);
+  EXPECT_LE(ate, 0.007);
 }
 
 TEST(RunCommand, TumFr1RpyFastRotationWithinThreeCentimetresSlow) {

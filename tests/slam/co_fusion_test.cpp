@@ -65,14 +65,16 @@ double iou(const cv::Mat& gt, const std::vector<uint16_t>& labels, int gt_id, in
   return uni ? double(inter) / double(uni) : 0.0;
 }
 
-TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
-  const synthetic::SyntheticSequence seq(synthetic::load_scene("two_objects"));
-  const SceneRun r = run(seq);
+// The multi-object issue's bounds on a generated scene: camera ATE <= 1 cm; every moving object
+// discovered (a model covering it with IoU >= 0.5) within 10 frames of its first motion; no other
+// object model lives more than 10 frames; tracked-point ATE <= 1 cm per object; mean per-label IoU
+// >= 0.8 over the frames after each label's discovery allowance.
+void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun& r) {
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
 
   // Camera.
   const double camera_ate = eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse;
-  RecordProperty("camera_ate_m", std::to_string(camera_ate));
+  ::testing::Test::RecordProperty("camera_ate_m", std::to_string(camera_ate));
   EXPECT_LE(camera_ate, 0.01);
 
   // Discovery: a model covering the object (IoU >= 0.5) within 10 frames of its first motion.
@@ -91,7 +93,7 @@ TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
       }
     }
     ASSERT_GE(discovered, 0) << "object " << k << " (moving from frame " << start << ") never discovered";
-    RecordProperty("object_" + std::to_string(k) + "_discovery_delay_frames", discovered - start);
+    ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_discovery_delay_frames", discovered - start);
     EXPECT_LE(discovered - start, 10) << "object " << k;
   }
 
@@ -114,7 +116,7 @@ TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
         for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T});
     ASSERT_GE(est.size(), 15u) << "model " << id;
     const auto errors = eval::compute_object_trajectory_errors(seq.object_trajectory(k), est);
-    RecordProperty("object_" + std::to_string(k) + "_ate_m", std::to_string(errors.tracked_point_m.rmse));
+    ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_ate_m", std::to_string(errors.tracked_point_m.rmse));
     EXPECT_LE(errors.tracked_point_m.rmse, 0.01) << "object " << k << " (model " << id << ")";
   }
 
@@ -134,12 +136,25 @@ TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   for (const auto& [label, ious] : per_label) {
     double mean = 0;
     for (double v : ious) mean += v / double(ious.size());
-    RecordProperty("label_" + std::to_string(label) + "_iou", std::to_string(mean));
+    ::testing::Test::RecordProperty("label_" + std::to_string(label) + "_iou", std::to_string(mean));
     std::printf("  label %d: mean IoU %.3f over %zu frames\n", label, mean, ious.size());
     sum += mean;
   }
   ASSERT_EQ(per_label.size(), size_t(seq.object_count() + 1));
   EXPECT_GE(sum / double(per_label.size()), 0.8);
+}
+
+TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("two_objects"));
+  expect_issue_bounds(seq, run(seq));
+}
+
+// A box pushed over the table slides along its own faces: little point-to-plane residual, so it
+// is found by its moving texture (the photometric part of the motion cost), while the hand-held
+// camera drifts and jitters. The first 50 frames: the slide (the lift that follows is not asserted).
+TEST_F(CoFusionScenes, SlidingBoxIsDiscoveredTrackedAndSegmentedSlow) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("one_object"), 0, 50);
+  expect_issue_bounds(seq, run(seq));
 }
 
 TEST_F(CoFusionScenes, StaticRoomSpawnsNoModel) {
