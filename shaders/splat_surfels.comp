@@ -32,19 +32,24 @@ void main() {
   // Keyed by the surfel centre's depth, every cell of the footprint would go to the surfel nearest
   // the camera: on a slanted surface the predicted colours shift towards the near side by up to
   // the footprint, which biases photometric tracking (5 mm on a static synthetic table).
+  // A cell's ray, offset (du, dv) cells from the surfel's projection, is pc / pc.z + (du / (scale
+  // fx), dv / (scale fy), 0): it meets the plane dot(nc, X) = dot(nc, pc) at depth
+  // dot(nc, pc) / (dot(nc, pc) / pc.z + a du + b dv). At grazing angles (tested once, at the
+  // centre) the centre's depth is kept.
   float plane_offset = dot(nc, pc);
+  bool grazing = abs(plane_offset) <= 0.2 * length(pc);
+  float denom0 = plane_offset / pc.z, a = nc.x / (scale * p.fx), b = nc.y / (scale * p.fy);
+  float max_dz = 2.0 * s.radius_m + 0.01;
   float penalty = p.offset_penalty_rel * pc.z / (scale * scale);
   for (int dy = -f; dy <= f; ++dy) {
     for (int dx = -f; dx <= f; ++dx) {
       int x = cx + dx, y = cy + dy;
       if (x < 0 || y < 0 || x >= int(p.width) || y >= int(p.height)) continue;
       float du = float(x) + 0.5 - u, dv = float(y) + 0.5 - v;
-      vec3 ray = vec3(((float(x) + 0.5) / scale - 0.5 - p.cx) / p.fx, ((float(y) + 0.5) / scale - 0.5 - p.cy) / p.fy, 1.0);
-      float denom = dot(nc, ray);
       float z = pc.z;
-      if (abs(denom) > 0.2 * length(ray)) {
-        float t = plane_offset / denom;
-        if (t > 0.0 && abs(t - pc.z) < 2.0 * s.radius_m + 0.01) z = t;
+      if (!grazing) {
+        float t = plane_offset / (denom0 + a * du + b * dv);
+        if (t > 0.0 && abs(t - pc.z) < max_dz) z = t;
       }
       z += penalty * (du * du + dv * dv);
       uint64_t key = (uint64_t(floatBitsToUint(z)) << 32) | uint64_t(i);

@@ -72,7 +72,8 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const json& p = root["tracker"];
     const std::string where = file + ": tracker";
     check_keys(p, {"iterations_per_level", "max_correspondence_distance_m", "max_normal_angle_deg", "use_photometric",
-                   "photometric_weight", "max_intensity_diff", "photometric_huber_k", "min_correspondences", "min_inlier_ratio",
+                   "photometric_weight", "max_intensity_diff", "photometric_huber_k", "min_correspondences",
+                   "min_coarse_level_correspondences", "min_inlier_ratio",
                    "min_eigenvalue_ratio", "reduction_workgroups", "converged_translation_m",
                    "converged_rotation_rad"},
                where);
@@ -85,6 +86,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "max_intensity_diff", c.max_intensity_diff, where);
     read(p, "photometric_huber_k", c.photometric_huber_k, where);
     read(p, "min_correspondences", c.min_correspondences, where);
+    read(p, "min_coarse_level_correspondences", c.min_coarse_level_correspondences, where);
     read(p, "min_inlier_ratio", c.min_inlier_ratio, where);
     read(p, "min_eigenvalue_ratio", c.min_eigenvalue_ratio, where);
     read(p, "reduction_workgroups", c.reduction_workgroups, where);

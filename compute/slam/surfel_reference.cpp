@@ -57,19 +57,19 @@ std::vector<uint64_t> splat(const std::vector<Surfel>& surfels, const gpu_layout
     const int cx = int(std::floor(u)), cy = int(std::floor(v));
     const int f = std::min(int(p.footprint_px), int(s.radius_m * p.fx / pc.z * scale));
     const float plane_offset = glm::dot(nc, pc);
+    const bool grazing = std::abs(plane_offset) <= 0.2f * glm::length(pc);
+    const float denom0 = plane_offset / pc.z, a = nc.x / (scale * p.fx), b = nc.y / (scale * p.fy);
+    const float max_dz = 2.0f * s.radius_m + 0.01f;
     const float penalty = p.offset_penalty_rel * pc.z / (scale * scale);
     for (int dy = -f; dy <= f; ++dy)
       for (int dx = -f; dx <= f; ++dx) {
         const int x = cx + dx, y = cy + dy;
         if (x < 0 || y < 0 || x >= int(p.width) || y >= int(p.height)) continue;
         const float du = float(x) + 0.5f - u, dv = float(y) + 0.5f - v;
-        const vec3 ray(((float(x) + 0.5f) / scale - 0.5f - p.cx) / p.fx, ((float(y) + 0.5f) / scale - 0.5f - p.cy) / p.fy,
-                       1.0f);
-        const float denom = glm::dot(nc, ray);
         float z = pc.z;
-        if (std::abs(denom) > 0.2f * glm::length(ray)) {
-          const float t = plane_offset / denom;
-          if (t > 0.0f && std::abs(t - pc.z) < 2.0f * s.radius_m + 0.01f) z = t;
+        if (!grazing) {
+          const float t = plane_offset / (denom0 + a * du + b * dv);
+          if (t > 0.0f && std::abs(t - pc.z) < max_dz) z = t;
         }
         z += penalty * (du * du + dv * dv);
         const uint64_t key = (uint64_t(std::bit_cast<uint32_t>(z)) << 32) | i;

@@ -54,6 +54,7 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.max_intensity_diff > 0)) bad("max_intensity_diff must be > 0");
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
   if (p.min_correspondences < 0) bad("min_correspondences must be >= 0");
+  if (p.min_coarse_level_correspondences < 0) bad("min_coarse_level_correspondences must be >= 0");
   if (!(p.min_inlier_ratio >= 0 && p.min_inlier_ratio <= 1)) bad("min_inlier_ratio must be in [0, 1]");
   if (!(p.min_eigenvalue_ratio >= 0 && p.min_eigenvalue_ratio < 1)) bad("min_eigenvalue_ratio must be in [0, 1)");
   if (!(p.max_step_translation_m > 0) || !(p.max_step_rotation_deg > 0)) bad("max step sizes must be > 0");
@@ -93,6 +94,7 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
       result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
       result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
       rgb_huber_delta = params.photometric_huber_k * result.rgb_rms;
+      if (level > 0 && s.icp[28] < params.min_coarse_level_correspondences) break;  // on to the next finer level
       if (s.icp[28] < min_corr)
         return fail("too few ICP correspondences at " + where + ": " + std::to_string(result.icp_inliers) +
                     " < " + fmt(min_corr));

@@ -53,6 +53,12 @@ struct TrackerParams {
   // Fewest ICP correspondences at full resolution; coarser levels need this times their share of
   // the full-resolution pixels (at least 12).
   int min_correspondences = 1000;
+  // A coarser level with fewer ICP correspondences than this is skipped (tracking goes on at the
+  // next finer level from the pose so far) instead of solved: a small object covers a few dozen
+  // pixels at 80x60, too few for a stable step (on one_object a 23 cm step from 66 pixels made the
+  // box's model lose the box when it was lifted). The finest level still fails below
+  // min_correspondences.
+  int min_coarse_level_correspondences = 300;
   // Final ICP inliers / live pixels with a valid vertex and normal (at the finest level run). For
   // object models, whose predicted view covers part of the image, the caller lowers this.
   double min_inlier_ratio = 0.1;

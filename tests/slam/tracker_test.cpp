@@ -273,6 +273,43 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
   }
 }
 
+// Host-side solver: a coarse level where a (small) model has too few correspondences is skipped,
+// not solved; its step would be noise (here: a 1 m step, which the divergence rule rejects).
+TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
+  const auto term = [](double diagonal, double b, double count) {
+    std::array<double, slam::LinearSystemSums::kTermValues> t{};
+    int k = 0;
+    for (int i = 0; i < 6; ++i)
+      for (int j = i; j < 6; ++j) t[size_t(k++)] = i == j ? diagonal : 0.0;
+    for (int i = 0; i < 6; ++i) t[size_t(21 + i)] = i == 0 ? b : 0.0;
+    t[27] = 1e-6 * count, t[28] = count;
+    return t;
+  };
+  const std::vector<long> pixels = {640 * 480, 320 * 240, 160 * 120, 80 * 60};
+  std::vector<int> levels_seen;
+  const slam::SumsAtLevel sums = [&](int level, const Isometry3d&, double) {
+    levels_seen.push_back(level);
+    slam::LinearSystemSums s;
+    s.valid_live_pixels = 6000;
+    // Coarse levels: 50 correspondences whose system asks for a 1 m step along x. Finest: 5000
+    // correspondences, already converged (zero gradient).
+    s.icp = level > 0 ? term(1.0, -1.0, 50) : term(1e4, 0.0, 5000);
+    return s;
+  };
+  slam::TrackerParams params;
+  params.use_photometric = false;
+  const Isometry3d guess = se3_exp((Vector6d() << 0.01, 0.02, 0.0, 0.0, 0.01, 0.0).finished());
+  const slam::TrackingResult r = slam::gauss_newton(pixels, sums, guess, params);
+  EXPECT_FALSE(r.failed) << r.failure_reason;
+  EXPECT_TRUE(r.T_reference_live.isApprox(guess, 1e-12));
+  EXPECT_EQ(levels_seen, (std::vector<int>{3, 2, 1, 0}));  // one look per coarse level
+
+  params.min_coarse_level_correspondences = 0;  // solve every level: the 1 m step diverges
+  const slam::TrackingResult solved = slam::gauss_newton(pixels, sums, guess, params);
+  EXPECT_TRUE(solved.failed);
+  EXPECT_NE(solved.failure_reason.find("diverged at level 3"), std::string::npos) << solved.failure_reason;
+}
+
 TEST(PixelRectTest, LevelsClampAndCoverTheSubsampledPixels) {
   const PixelRect r{5, 3, 11, 10};
   EXPECT_EQ(r.at_level(0, 640, 480), r);
