@@ -146,7 +146,8 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const json& p = root["lifecycle"];
     const std::string where = file + ": lifecycle";
     check_keys(p, {"spawn_min_area_fraction", "warmup_frames", "spawn_max_camera_rotation_deg",
-                   "spawn_max_camera_translation_m", "spawn_min_overlap", "spawn_max_area_fraction",
+                   "spawn_max_camera_translation_m", "spawn_min_overlap", "spawn_max_velocity_guess_m",
+                   "spawn_max_area_fraction",
                    "background_tracks_unclaimed_above", "max_active_models", "deactivate_after_frames",
                    "min_stable_surfels", "probation_frames", "static_translation_m", "static_rotation_deg",
                    "merge_window_frames", "merge_translation_m", "merge_rotation_deg", "duplicate_margin_rel",
@@ -158,6 +159,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "spawn_max_camera_rotation_deg", c.spawn_max_camera_rotation_deg, where);
     read(p, "spawn_max_camera_translation_m", c.spawn_max_camera_translation_m, where);
     read(p, "spawn_min_overlap", c.spawn_min_overlap, where);
+    read(p, "spawn_max_velocity_guess_m", c.spawn_max_velocity_guess_m, where);
     read(p, "spawn_max_area_fraction", c.spawn_max_area_fraction, where);
     read(p, "background_tracks_unclaimed_above", c.background_tracks_unclaimed_above, where);
     read(p, "max_active_models", c.max_active_models, where);

@@ -462,13 +462,28 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   size_t confirmed = 0;
   for (size_t i : best_pixels) confirmed += spawn_candidate_.size() == n && spawn_candidate_[i];
   const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(best_pixels.size());
+  // Centroid (camera frame) of the region's live points: the new model's origin, and with the
+  // previous candidate's the region's motion over the last frame.
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  size_t centroid_points = 0;
+  for (size_t i : best_pixels) {
+    const float d = depth_m[i];
+    if (!(d > 0.0f)) continue;
+    const double x = double(i % width), y = double(i / width);
+    centroid += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
+    ++centroid_points;
+  }
+  if (centroid_points > 0) centroid /= double(centroid_points);
+  const std::optional<Eigen::Vector3d> previous_centroid = spawn_candidate_centroid_;
   spawn_candidate_.assign(n, 0);
-  if (large)
+  spawn_candidate_centroid_.reset();
+  if (large) {
     for (size_t i : best_pixels) spawn_candidate_[i] = 1;
+    if (centroid_points > 0) spawn_candidate_centroid_ = centroid;
+  }
   const bool spawn =
       frame_ >= p.warmup_frames && camera_steady && large && persistent && active_count < p.max_active_models;
   int new_slot = -1;
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   if (spawn) {
     new_slot = free_slot();
     for (size_t i : best_pixels) slots[i] = static_cast<uint8_t>(new_slot);
@@ -477,16 +492,6 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   upload_labels(slots);
 
   if (spawn) {
-    // Centroid of the region's live points (camera frame): the new model's origin.
-    size_t count = 0;
-    for (size_t i : best_pixels) {
-      const float d = depth_m[i];
-      if (!(d > 0.0f)) continue;
-      const double x = double(i % width), y = double(i / width);
-      centroid += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
-      ++count;
-    }
-    if (count > 0) centroid /= double(count);
     const double percent = 100.0 * double(best_pixels.size()) / double(n);
     char share[32];
     std::snprintf(share, sizeof share, "%.1f%%", percent);
@@ -507,6 +512,13 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       T_camera_model.translation() = centroid;
       Model& m = create_model(new_slot, T_world_camera_ * T_camera_model);
       m.pixels = static_cast<int>(best_pixels.size());
+      // A new model has no velocity yet; the region's centroid moved by `step` over the last
+      // frame, which is the first tracking's guess (an object entering fast, 3 cm per frame, moves
+      // out of the pixels the new model is masked to, and from a zero guess its model stays put).
+      if (previous_centroid && centroid_points > 0) {
+        const Eigen::Vector3d step = centroid - *previous_centroid;
+        if (step.norm() <= p.spawn_max_velocity_guess_m) m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
+      }
       spawned_slot = new_slot;
       out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" +
                            share + " of the image)");

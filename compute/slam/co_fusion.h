@@ -83,6 +83,9 @@ struct LifecycleParams {
   // ... and only when at least this fraction of the region was a large outlier region in the
   // previous frame too.
   double spawn_min_overlap = 0.5;
+  // A new model's first tracking starts from the region's centroid motion over the last frame
+  // when it is at most this long (metres; longer means the regions are not one object's).
+  double spawn_max_velocity_guess_m = 0.1;
   // Active models at most, background included (the label map has 32 slots; each model costs a
   // prediction, a tracking run and a fusion per frame).
   int max_active_models = 8;
@@ -222,6 +225,8 @@ class CoFusion {
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels
   std::vector<uint8_t> spawn_candidate_;
+  // Centroid of the candidate's live points (camera frame), when it had any.
+  std::optional<Eigen::Vector3d> spawn_candidate_centroid_;
   segmentation::ComponentLabelling components_;  // scratch of the outlier-region search  // the previous frame's large outlier region (1 = in it)
   std::vector<std::unique_ptr<Model>> models_;  // active and inactive
   int next_id_ = 1;
