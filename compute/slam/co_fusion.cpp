@@ -217,8 +217,9 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   // Photometric residuals in units of this frame's photometric noise (the background's RMS
   // residual after tracking): motion blur and exposure changes raise every pixel's residual.
   const double rgb_rms = models_.front()->tracking.rgb_rms;
-  const float photometric_m =
-      rgb_rms > p.photometric_reference_rms ? float(p.photometric_m * p.photometric_reference_rms / rgb_rms) : p.photometric_m;
+  const float photometric_m = rgb_rms > p.photometric_reference_rms
+                                  ? float(p.photometric_m * p.photometric_reference_rms / rgb_rms)
+                                  : p.photometric_m;
   tbb::parallel_for(tbb::blocked_range<int>(rect.y0, rect.y1, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (size_t i = size_t(y) * width + size_t(rect.x0); i < size_t(y) * width + size_t(rect.x1); ++i) {
@@ -517,7 +518,8 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       // out of the pixels the new model is masked to, and from a zero guess its model stays put).
       if (previous_centroid && centroid_points > 0) {
         const Eigen::Vector3d step = centroid - *previous_centroid;
-        if (step.norm() <= p.spawn_max_velocity_guess_m) m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
+        if (step.norm() <= p.spawn_max_velocity_guess_m)
+          m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
       }
       spawned_slot = new_slot;
       out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" +

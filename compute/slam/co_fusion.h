@@ -224,10 +224,10 @@ class CoFusion {
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels
-  std::vector<uint8_t> spawn_candidate_;
+  std::vector<uint8_t> spawn_candidate_;  // the previous frame's large outlier region (1 = in it)
   // Centroid of the candidate's live points (camera frame), when it had any.
   std::optional<Eigen::Vector3d> spawn_candidate_centroid_;
-  segmentation::ComponentLabelling components_;  // scratch of the outlier-region search  // the previous frame's large outlier region (1 = in it)
+  segmentation::ComponentLabelling components_;  // scratch of the outlier-region search
   std::vector<std::unique_ptr<Model>> models_;  // active and inactive
   int next_id_ = 1;
   int frame_ = 0;
