@@ -148,8 +148,8 @@ CoFusion::Model& CoFusion::create_model(int slot, const Eigen::Isometry3d& T_wor
   return m;
 }
 
-int CoFusion::free_slot() const {
-  uint32_t used = 0;
+int CoFusion::free_slot(uint32_t taken) const {
+  uint32_t used = taken;
   for (const auto& m : models_)
     if (m->state == ModelState::kActive) used |= 1u << m->slot;
   for (int s = 0; s < kSlots - 1; ++s)
@@ -236,10 +236,10 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   });
 }
 
-void CoFusion::fuse_model(Model& m, std::optional<int> duplicate_slot, const PixelRect& fuse_rect) {
+void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect) {
   const Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
-  if (duplicate_slot)
-    surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(*duplicate_slot),
+  for (int duplicate_slot : duplicate_slots)
+    surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(duplicate_slot),
                            params_.lifecycle.duplicate_margin_rel);
   if (m.tracking.failed) return;  // a guessed pose would corrupt the model
   surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
@@ -324,7 +324,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
   }
   out.T_world_camera = T_world_camera_;
 
-  std::optional<int> spawned_slot;
+  std::vector<int> spawned_slots;
   if (segmenting) {
     cpu_jobs.wait();
     out.superpixels_ms = ms_between(sp_start, sp_end);
@@ -334,7 +334,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     for (size_t k = 0; k < active.size(); ++k) model_costs(*active[k], depth_m, costs[k]);
     std::vector<std::span<const float>> views(costs.begin(), costs.end());
     const segmentation::SegmentationResult seg = segmenter_.segment(*superpixels, rgb, depth_m, views);
-    slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slot);
+    slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
     out.segment_ms = ms_between(seg_start, Clock::now());
   } else {
     // Everything with depth belongs to the background. The GPU needs the labels only to mask
@@ -351,7 +351,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     if (m->state == ModelState::kActive) fusing.push_back(m.get());
   const std::vector<PixelRect> fuse_rects = slot_rects(slots_, width, height);
   for_each_model(fusing, [&](Model& m) {
-    fuse_model(m, m.id == 0 ? spawned_slot : std::nullopt, fuse_rects[size_t(m.slot)]);
+    fuse_model(m, m.id == 0 ? spawned_slots : std::vector<int>{}, fuse_rects[size_t(m.slot)]);
   });
   stage("fuse");
 
@@ -386,7 +386,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
 std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationResult& seg,
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
                                                std::vector<Model*>& order, CoFusionFrame& out,
-                                               std::optional<int>& spawned_slot) {
+                                               std::vector<int>& spawned_slots) {
   const LifecycleParams& p = params_.lifecycle;
   const int width = intrinsics_.width, height = intrinsics_.height;
   const size_t n = size_t(width) * height;
@@ -441,66 +441,100 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
     }
   }
 
-  // The largest connected outlier region (4-connectivity) is a candidate new model.
+  // Every connected outlier region (4-connectivity) between spawn_min_area_fraction and
+  // spawn_max_area_fraction of the image is a candidate new model; it spawns one once it was a
+  // candidate in the previous frame too (several objects starting to move at once each spawn).
   segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
-  int best = -1;
-  for (int c = 0; c < int(components_.components.size()); ++c) {
-    const auto& info = components_.components[size_t(c)];
-    if (info.value == outlier && (best < 0 || info.pixels > components_.components[size_t(best)].pixels)) best = c;
+  std::vector<std::vector<size_t>> regions;  // pixels of each large outlier region, largest first
+  {
+    std::vector<int> large_components;
+    for (int c = 0; c < int(components_.components.size()); ++c) {
+      const auto& info = components_.components[size_t(c)];
+      if (info.value == outlier && double(info.pixels) > p.spawn_min_area_fraction * double(n) &&
+          double(info.pixels) <= p.spawn_max_area_fraction * double(n))
+        large_components.push_back(c);
+    }
+    std::sort(large_components.begin(), large_components.end(), [&](int x, int y) {
+      return components_.components[size_t(x)].pixels > components_.components[size_t(y)].pixels;
+    });
+    std::vector<int> region_of(components_.components.size(), -1);
+    for (size_t r = 0; r < large_components.size(); ++r) region_of[size_t(large_components[r])] = int(r);
+    regions.resize(large_components.size());
+    for (const auto& run : components_.runs)
+      if (run.component >= 0 && region_of[size_t(run.component)] >= 0)
+        for (int x = run.x0; x < run.x1; ++x)
+          regions[size_t(region_of[size_t(run.component)])].push_back(size_t(run.y) * size_t(width) + size_t(x));
   }
-  std::vector<size_t> best_pixels;
-  for (const auto& run : components_.runs)
-    if (run.component == best)
-      for (int x = run.x0; x < run.x1; ++x) best_pixels.push_back(size_t(run.y) * size_t(width) + size_t(x));
   int active_count = 0;
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
   const bool camera_steady = !bg.tracking.failed && bg.motion.translation().norm() <= p.spawn_max_camera_translation_m &&
                              rotation_deg(bg.motion) <= p.spawn_max_camera_rotation_deg;
-  const bool large = double(best_pixels.size()) > p.spawn_min_area_fraction * double(n) &&
-                     double(best_pixels.size()) <= p.spawn_max_area_fraction * double(n);
-  // A region must be there in consecutive frames: transient outliers (a blurred frame, a depth
-  // glitch) spawn nothing.
-  size_t confirmed = 0;
-  for (size_t i : best_pixels) confirmed += spawn_candidate_.size() == n && spawn_candidate_[i];
-  const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(best_pixels.size());
-  // Centroid (camera frame) of the region's live points: the new model's origin, and with the
-  // previous candidate's the region's motion over the last frame.
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  size_t centroid_points = 0;
-  for (size_t i : best_pixels) {
-    const float d = depth_m[i];
-    if (!(d > 0.0f)) continue;
-    const double x = double(i % width), y = double(i / width);
-    centroid += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
-    ++centroid_points;
-  }
-  if (centroid_points > 0) centroid /= double(centroid_points);
-  const std::optional<Eigen::Vector3d> previous_centroid = spawn_candidate_centroid_;
+  // Centroid (camera frame) of a region's live points: a new model's origin, and with the previous
+  // frame's candidate it overlaps most the region's motion over the last frame.
+  const auto centroid_of = [&](const std::vector<size_t>& pixels) -> std::optional<Eigen::Vector3d> {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    size_t count = 0;
+    for (size_t i : pixels) {
+      const float d = depth_m[i];
+      if (!(d > 0.0f)) continue;
+      const double x = double(i % width), y = double(i / width);
+      sum += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
+      ++count;
+    }
+    if (count == 0) return std::nullopt;
+    return sum / double(count);
+  };
+  const std::vector<uint8_t> previous_candidates = std::move(spawn_candidate_);
+  const std::vector<std::optional<Eigen::Vector3d>> previous_centroids = std::move(spawn_candidate_centroids_);
   spawn_candidate_.assign(n, 0);
-  spawn_candidate_centroid_.reset();
-  if (large) {
-    for (size_t i : best_pixels) spawn_candidate_[i] = 1;
-    if (centroid_points > 0) spawn_candidate_centroid_ = centroid;
+  spawn_candidate_centroids_.clear();
+  struct Spawn {
+    size_t region;
+    int slot;
+    std::optional<Eigen::Vector3d> centroid, previous_centroid;
+  };
+  std::vector<Spawn> spawns;
+  for (size_t r = 0; r < regions.size(); ++r) {
+    const std::vector<size_t>& pixels = regions[r];
+    const std::optional<Eigen::Vector3d> centroid = centroid_of(pixels);
+    // A region must be there in consecutive frames: transient outliers (a blurred frame, a depth
+    // glitch) spawn nothing. Which previous candidate it overlaps most gives its last position.
+    std::vector<size_t> overlap(previous_centroids.size() + 1, 0);
+    if (previous_candidates.size() == n)
+      for (size_t i : pixels) ++overlap[previous_candidates[i]];
+    size_t confirmed = 0, best_previous = 0;
+    for (size_t k = 1; k < overlap.size(); ++k) {
+      confirmed += overlap[k];
+      if (overlap[k] > overlap[best_previous]) best_previous = k;
+    }
+    const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(pixels.size());
+    if (frame_ >= p.warmup_frames && camera_steady && persistent &&
+        active_count + int(spawns.size()) < p.max_active_models) {
+      spawns.push_back({r, -1, centroid, best_previous > 0 ? previous_centroids[best_previous - 1] : std::nullopt});
+    } else if (spawn_candidate_centroids_.size() < 254) {  // a candidate for the next frame
+      spawn_candidate_centroids_.push_back(centroid);
+      for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidate_centroids_.size());
+    }
   }
-  const bool spawn =
-      frame_ >= p.warmup_frames && camera_steady && large && persistent && active_count < p.max_active_models;
-  int new_slot = -1;
-  if (spawn) {
-    new_slot = free_slot();
-    for (size_t i : best_pixels) slots[i] = static_cast<uint8_t>(new_slot);
-    spawn_candidate_.clear();
+  uint32_t taken = 0;  // slots given to this frame's new models
+  for (Spawn& sp : spawns) {
+    sp.slot = free_slot(taken);
+    taken |= 1u << sp.slot;
+    for (size_t i : regions[sp.region]) slots[i] = static_cast<uint8_t>(sp.slot);
   }
   upload_labels(slots);
 
-  if (spawn) {
-    const double percent = 100.0 * double(best_pixels.size()) / double(n);
+  for (const Spawn& sp : spawns) {
+    const std::vector<size_t>& pixels = regions[sp.region];
+    const Eigen::Vector3d centroid = sp.centroid.value_or(Eigen::Vector3d::Zero());
+    const double percent = 100.0 * double(pixels.size()) / double(n);
     char share[32];
     std::snprintf(share, sizeof share, "%.1f%%", percent);
     bool reactivated = false;
     if (p.reactivate) {
       for (auto& m : models_) {
         if (m->state != ModelState::kInactive) continue;
-        if (try_reactivate(*m, new_slot, centroid)) {
+        if (try_reactivate(*m, sp.slot, centroid)) {
           out.events.push_back("frame " + std::to_string(frame_) + ": re-activated model " + std::to_string(m->id) +
                                " (" + share + " of the image)");
           reactivated = true;
@@ -511,17 +545,17 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
     if (!reactivated) {
       Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
       T_camera_model.translation() = centroid;
-      Model& m = create_model(new_slot, T_world_camera_ * T_camera_model);
-      m.pixels = static_cast<int>(best_pixels.size());
+      Model& m = create_model(sp.slot, T_world_camera_ * T_camera_model);
+      m.pixels = static_cast<int>(pixels.size());
       // A new model has no velocity yet; the region's centroid moved by `step` over the last
       // frame, which is the first tracking's guess (an object entering fast, 3 cm per frame, moves
       // out of the pixels the new model is masked to, and from a zero guess its model stays put).
-      if (previous_centroid && centroid_points > 0) {
-        const Eigen::Vector3d step = centroid - *previous_centroid;
+      if (sp.centroid && sp.previous_centroid) {
+        const Eigen::Vector3d step = *sp.centroid - *sp.previous_centroid;
         if (step.norm() <= p.spawn_max_velocity_guess_m)
           m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
       }
-      spawned_slot = new_slot;
+      spawned_slots.push_back(sp.slot);
       out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" +
                            share + " of the image)");
     }

@@ -201,16 +201,16 @@ class CoFusion {
   Model& create_model(int slot, const Eigen::Isometry3d& T_world_model);
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
   void track_model(Model& m);
-  void fuse_model(Model& m, std::optional<int> duplicate_slot, const PixelRect& fuse_rect);
+  void fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect);
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
   std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,
                                        const std::vector<std::vector<float>>& costs, const float* depth_m,
-                                       std::vector<Model*>& order, CoFusionFrame& out, std::optional<int>& spawned_slot);
+                                       std::vector<Model*>& order, CoFusionFrame& out, std::vector<int>& spawned_slots);
   bool try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera);
   void merge_into(Model& keep, Model& gone, CoFusionFrame& out, const std::string& why);
   void retire(Model& m, CoFusionFrame& out);
   void upload_labels(const std::vector<uint8_t>& slots);
-  int free_slot() const;
+  int free_slot(uint32_t taken = 0) const;  // a slot no active model (nor `taken`, a bit mask) uses
 
   gpu::Context& ctx_;
   Intrinsics intrinsics_;
@@ -224,9 +224,10 @@ class CoFusion {
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels
-  std::vector<uint8_t> spawn_candidate_;  // the previous frame's large outlier region (1 = in it)
-  // Centroid of the candidate's live points (camera frame), when it had any.
-  std::optional<Eigen::Vector3d> spawn_candidate_centroid_;
+  // The previous frame's large outlier regions that did not spawn: per pixel 0 = none, k = the
+  // k-th, whose live points' centroid (camera frame; none without depth) is entry k - 1.
+  std::vector<uint8_t> spawn_candidate_;
+  std::vector<std::optional<Eigen::Vector3d>> spawn_candidate_centroids_;
   segmentation::ComponentLabelling components_;  // scratch of the outlier-region search
   std::vector<std::unique_ptr<Model>> models_;  // active and inactive
   int next_id_ = 1;
