@@ -60,26 +60,10 @@ void label_components(const T* labels, int width, int height, std::optional<T> i
   const auto run_count = static_cast<int32_t>(out.runs.size());
   UnionFind uf;
   uf.reset(run_count);
-  for (int y = 1; y < height; ++y) {
-    int32_t a = out.row_begin[static_cast<size_t>(y)];
-    const int32_t a_end = out.row_begin[static_cast<size_t>(y) + 1];
-    int32_t b = out.row_begin[static_cast<size_t>(y) - 1];
-    const int32_t b_end = out.row_begin[static_cast<size_t>(y)];
-    while (a < a_end && b < b_end) {
-      const LabelRun& ra = out.runs[static_cast<size_t>(a)];
-      const LabelRun& rb = out.runs[static_cast<size_t>(b)];
-      if (ra.x0 < rb.x1 && rb.x0 < ra.x1 && ra.value == rb.value) uf.unite(a, b);
-      // Advance whichever run ends first (both when they end together).
-      if (ra.x1 < rb.x1)
-        ++a;
-      else if (rb.x1 < ra.x1)
-        ++b;
-      else {
-        ++a;
-        ++b;
-      }
-    }
-  }
+  for (int y = 1; y < height; ++y)
+    for_each_overlapping_run_pair(out.runs, out.row_begin, y, [&](int32_t a, int32_t b) {
+      if (out.runs[static_cast<size_t>(a)].value == out.runs[static_cast<size_t>(b)].value) uf.unite(a, b);
+    });
 
   // Components in raster order of their first run; statistics.
   std::vector<int32_t> root_component(static_cast<size_t>(run_count), -1);

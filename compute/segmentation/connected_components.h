@@ -29,6 +29,26 @@ struct ComponentLabelling {
   std::vector<ComponentInfo> components;
 };
 
+// Calls f(a, b) for every run index a of row y (y >= 1) and b of row y - 1 whose x ranges overlap
+// (vertically 4-connected runs, whatever their values), walking both rows once.
+template <class F>
+void for_each_overlapping_run_pair(const std::vector<LabelRun>& runs, const std::vector<int32_t>& row_begin, int y,
+                                   F&& f) {
+  int32_t a = row_begin[static_cast<size_t>(y)];
+  const int32_t a_end = row_begin[static_cast<size_t>(y) + 1];
+  int32_t b = row_begin[static_cast<size_t>(y) - 1];
+  const int32_t b_end = row_begin[static_cast<size_t>(y)];
+  while (a < a_end && b < b_end) {
+    const LabelRun& ra = runs[static_cast<size_t>(a)];
+    const LabelRun& rb = runs[static_cast<size_t>(b)];
+    if (ra.x0 < rb.x1 && rb.x0 < ra.x1) f(a, b);
+    // Advance whichever run ends first (both when they end together).
+    const bool advance_a = ra.x1 <= rb.x1, advance_b = rb.x1 <= ra.x1;
+    a += advance_a;
+    b += advance_b;
+  }
+}
+
 // Labels the 4-connected components of `labels` (width*height values, row-major). Pixels equal to
 // `ignore` (when given) belong to no run and no component. Reuses `out`'s storage.
 // Instantiated for int32_t and uint8_t.

@@ -384,24 +384,11 @@ Superpixels Slic::compute(const uint8_t* rgb, const float* depth_m, int width, i
       consider(q, p);
     }
     if (y == 0) continue;
-    int32_t a = a0, b = cc.row_begin[static_cast<size_t>(y) - 1];
-    const int32_t b1 = a0;
-    while (a < a1 && b < b1) {
-      const LabelRun& ra = cc.runs[static_cast<size_t>(a)];
-      const LabelRun& rb = cc.runs[static_cast<size_t>(b)];
-      if (ra.x0 < rb.x1 && rb.x0 < ra.x1) {
-        consider(ra.component, rb.component);
-        consider(rb.component, ra.component);
-      }
-      if (ra.x1 < rb.x1)
-        ++a;
-      else if (rb.x1 < ra.x1)
-        ++b;
-      else {
-        ++a;
-        ++b;
-      }
-    }
+    for_each_overlapping_run_pair(cc.runs, cc.row_begin, y, [&](int32_t ia, int32_t ib) {
+      const int32_t p = cc.runs[static_cast<size_t>(ia)].component, q = cc.runs[static_cast<size_t>(ib)].component;
+      consider(p, q);
+      consider(q, p);
+    });
   }
   UnionFind uf;
   uf.reset(pieces);

@@ -44,12 +44,6 @@ class MotionKernelsTest : public GpuTest {
     GpuTest::TearDownTestSuite();
   }
   template <typename T>
-  gpu::BufferPtr upload(const std::vector<T>& v, const std::string& what = "input") {
-    auto b = gpu::Buffer::create(ctx(), std::max<size_t>(v.size(), 1) * sizeof(T), what);
-    stream().upload(b, v.data(), v.size() * sizeof(T));
-    return b;
-  }
-  template <typename T>
   Image<T> download(const gpu::BufferPtr& b, int w, int h) {
     Image<T> out(w, h);
     out.pixels = stream().template download<T>(b, out.size());

@@ -43,11 +43,6 @@ class SurfelRegion : public GpuTest {
     stream().upload(f.levels[0].depth_m, depth.pixels.data(), depth.bytes());
     return f;
   }
-  gpu::BufferPtr upload_labels(const Image<uint32_t>& labels) {
-    auto b = gpu::Buffer::create(ctx(), labels.bytes(), "labels");
-    stream().upload(b, labels.pixels.data(), labels.bytes());
-    return b;
-  }
   static std::unique_ptr<kernels::Preprocessor> pre_;
   static std::unique_ptr<slam::SurfelPipelines> pipes_;
 };
@@ -113,7 +108,8 @@ TEST_F(SurfelRegion, RemoveRegionMatchesReference) {
       slam::SurfelModel model(ctx(), 3, 1024);
       model.upload(stream(), surfels);
       const auto live = live_frame(k, depth);
-      const unsigned removed = pipes_->remove_region(stream(), model, live, T_camera_model, upload_labels(labels), label, 0.05f);
+      const unsigned removed =
+          pipes_->remove_region(stream(), model, live, T_camera_model, upload(labels.pixels, "labels"), label, 0.05f);
       EXPECT_EQ(removed + model.count(), surfels.size());
       L::RemoveRegionParams p{};
       slam::to_rows(T_camera_model, p.T_camera_model);
@@ -167,7 +163,8 @@ TEST_F(SurfelRegion, RemovingAMovingObjectKeepsTheBackgroundItHid) {
   slam::SurfelModel model(ctx(), 0, 1024);
   model.upload(stream(), surfels);
   const unsigned removed =
-      pipes_->remove_region(stream(), model, live_frame(k, depth), T_world_camera.inverse(), upload_labels(live.id), 1, 0.05f);
+      pipes_->remove_region(stream(), model, live_frame(k, depth), T_world_camera.inverse(),
+                            upload(live.id.pixels, "labels"), 1, 0.05f);
   EXPECT_EQ(removed, sphere_pixels_with_depth);
   EXPECT_EQ(model.count(), wall_surfels + (sphere_pixels - sphere_pixels_with_depth));
   const Eigen::Vector3d centre = room().spheres[0].centre;
@@ -178,7 +175,9 @@ TEST_F(SurfelRegion, RemovingAMovingObjectKeepsTheBackgroundItHid) {
 
   // Nothing labelled 2: nothing goes.
   const unsigned before = model.count();
-  EXPECT_EQ(pipes_->remove_region(stream(), model, live_frame(k, depth), T_world_camera.inverse(), upload_labels(live.id), 2, 0.05f), 0u);
+  EXPECT_EQ(pipes_->remove_region(stream(), model, live_frame(k, depth), T_world_camera.inverse(),
+                                  upload(live.id.pixels, "labels"), 2, 0.05f),
+            0u);
   EXPECT_EQ(model.count(), before);
 }
 
@@ -196,7 +195,7 @@ TEST_F(SurfelRegion, RemoveRegionChecksItsInputs) {
   }
   EXPECT_THROW(pipes_->remove_region(stream(), model, live, Eigen::Isometry3d::Identity(), nullptr, 1, 0.05f), Error);
   // An empty model has nothing to remove.
-  auto labels = upload_labels(Image<uint32_t>(37, 23, 1u));
+  auto labels = upload(Image<uint32_t>(37, 23, 1u).pixels, "labels");
   EXPECT_EQ(pipes_->remove_region(stream(), model, live, Eigen::Isometry3d::Identity(), labels, 1, 0.05f), 0u);
   EXPECT_EQ(model.count(), 0u);
 }

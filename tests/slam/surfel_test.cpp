@@ -100,12 +100,6 @@ class SurfelKernels : public GpuTest {
     GpuTest::TearDownTestSuite();
   }
   template <typename T>
-  gpu::BufferPtr upload(const std::vector<T>& v, const std::string& what = "input") {
-    auto b = gpu::Buffer::create(ctx(), std::max<size_t>(v.size(), 1) * sizeof(T), what);
-    stream().upload(b, v.data(), v.size() * sizeof(T));
-    return b;
-  }
-  template <typename T>
   std::vector<T> download(const gpu::BufferPtr& b, size_t n) {
     return stream().template download<T>(b, n);
   }

@@ -4,7 +4,10 @@
 // which runs synchronously on the thread that made the offending call).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "gpu/context.h"
 #include "gpu/stream.h"
@@ -25,6 +28,14 @@ class GpuTest : public ::testing::Test {
 
   gpu::Context& ctx() { return *context_; }
   gpu::Stream& stream() { return *stream_; }
+
+  // A device buffer holding `v` (at least one element's size, so empty inputs are valid too).
+  template <typename T>
+  gpu::BufferPtr upload(const std::vector<T>& v, const std::string& what = "input") {
+    auto b = gpu::Buffer::create(ctx(), std::max<size_t>(v.size(), 1) * sizeof(T), what);
+    stream().upload(b, v.data(), v.size() * sizeof(T));
+    return b;
+  }
 
  private:
   static std::unique_ptr<gpu::Context> context_;
