@@ -10,8 +10,8 @@ layout(std430, binding = GRADIENT_BINDING_GRADIENT) writeonly buffer Gradient { 
 layout(push_constant) uniform Push { GradientParams p; };
 float at(ivec2 q) { return intensity[pixel_index(uvec2(clamp_pixel(q, p.width, p.height)), p.width)]; }
 void main() {
-  ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-  if (px.x >= int(p.width) || px.y >= int(p.height)) return;
+  ivec2 px = ivec2(gl_GlobalInvocationID.xy + uvec2(p.x0, p.y0));
+  if (px.x >= int(min(p.x1, p.width)) || px.y >= int(min(p.y1, p.height))) return;
   float tl = at(px + ivec2(-1, -1)), t = at(px + ivec2(0, -1)), tr = at(px + ivec2(1, -1));
   float l = at(px + ivec2(-1, 0)), r = at(px + ivec2(1, 0));
   float bl = at(px + ivec2(-1, 1)), b = at(px + ivec2(0, 1)), br = at(px + ivec2(1, 1));

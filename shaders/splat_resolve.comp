@@ -15,10 +15,12 @@ layout(std430, binding = RESOLVE_BINDING_INTENSITY) writeonly buffer Intensity {
 layout(std430, binding = RESOLVE_BINDING_INDEX) writeonly buffer Index { uint index_map[]; };
 layout(push_constant) uniform Push { ResolveParams p; };
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy;
-  if (px.x >= p.width || px.y >= p.height) return;
+  uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.x0, p.y0);
+  if (px.x >= min(p.x1, p.width) || px.y >= min(p.y1, p.height)) return;
   uint i = px.y * p.width + px.x;
-  uint64_t key = depth_index[i];
+  bool in_area = px.x >= p.area_x0 && px.x < p.area_x1 && px.y >= p.area_y0 && px.y < p.area_y1;
+  // Outside the area the key is not read: only the area's rows were cleared before the splat.
+  uint64_t key = in_area ? depth_index[i] : ~uint64_t(0);
   if (key == ~uint64_t(0)) {
     vertex[i] = vec4(0.0);
     normal[i] = vec4(0.0);

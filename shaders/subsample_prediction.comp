@@ -12,8 +12,8 @@ layout(std430, binding = SUBSAMPLE_BINDING_DST_NORMAL) writeonly buffer DN { vec
 layout(std430, binding = SUBSAMPLE_BINDING_DST_INTENSITY) writeonly buffer DI { float dst_intensity[]; };
 layout(push_constant) uniform Push { SubsampleParams p; };
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy;
-  if (px.x >= p.dst_width || px.y >= p.dst_height) return;
+  uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.x0, p.y0);
+  if (px.x >= min(p.x1, p.dst_width) || px.y >= min(p.y1, p.dst_height)) return;
   uvec2 src = min(2u * px, uvec2(p.src_width - 1u, p.src_height - 1u));
   uint s = src.y * p.src_width + src.x, d = px.y * p.dst_width + px.x;
   dst_vertex[d] = src_vertex[s];

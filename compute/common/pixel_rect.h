@@ -22,6 +22,12 @@ struct PixelRect {
                 std::clamp(y1, 0, height)};
     return r.empty() ? PixelRect{} : r;
   }
+  // The smallest rectangle holding both (an empty one adds nothing).
+  PixelRect united(const PixelRect& o) const {
+    if (o.empty()) return *this;
+    if (empty()) return o;
+    return {std::min(x0, o.x0), std::min(y0, o.y0), std::max(x1, o.x1), std::max(y1, o.y1)};
+  }
   PixelRect grown(int margin) const { return empty() ? *this : PixelRect{x0 - margin, y0 - margin, x1 + margin, y1 + margin}; }
 
   // The rectangle of pyramid level `level` (each level halves the one below) that holds every

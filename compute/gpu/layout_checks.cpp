@@ -10,15 +10,18 @@ static_assert(sizeof(BilateralParams) == 20 && offsetof(BilateralParams, sigma_d
 static_assert(sizeof(DownsampleParams) == 20 && offsetof(DownsampleParams, max_depth_diff_m) == 16);
 static_assert(sizeof(IntensityParams) == 8);
 static_assert(sizeof(VertexNormalParams) == 24 && offsetof(VertexNormalParams, cy) == 20);
-static_assert(sizeof(GradientParams) == 8);
+static_assert(sizeof(GradientParams) == 24 && offsetof(GradientParams, x0) == 8);
 static_assert(sizeof(TestFillParams) == 8);
 static_assert(sizeof(SplatParams) == 100 && offsetof(SplatParams, fx) == 48 && offsetof(SplatParams, footprint_px) == 92 &&
               offsetof(SplatParams, offset_penalty_rel) == 96);
-static_assert(sizeof(ResolveParams) == 80 && offsetof(ResolveParams, width) == 64);
+static_assert(sizeof(ResolveParams) == 112 && offsetof(ResolveParams, width) == 64 && offsetof(ResolveParams, x0) == 80 &&
+              offsetof(ResolveParams, area_x0) == 96);
+static_assert(sizeof(SubsampleParams) == 32 && offsetof(SubsampleParams, x0) == 16);
 static_assert(sizeof(FuseParams) == 124 && offsetof(FuseParams, fx) == 48 && offsetof(FuseParams, label) == 104 &&
               offsetof(FuseParams, rect_x0) == 108);
 // Vulkan guarantees 128 bytes of push constants.
-static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128);
+static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128 &&
+              sizeof(ResolveParams) <= 128);
 static_assert(sizeof(CleanupParams) == 96 && offsetof(CleanupParams, free_space_penalty) == 92);
 static_assert(sizeof(RemoveRegionParams) == 96 && offsetof(RemoveRegionParams, fx) == 48 &&
               offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80);

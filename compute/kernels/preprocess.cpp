@@ -110,9 +110,13 @@ void Preprocessor::vertex_normal_map(gpu::CommandList& cmd, const gpu::BufferPtr
 }
 
 void Preprocessor::intensity_gradient(gpu::CommandList& cmd, const gpu::BufferPtr& intensity,
-                                      const gpu::BufferPtr& gradient, int width, int height) const {
-  const L::GradientParams p{static_cast<uint32_t>(width), static_cast<uint32_t>(height)};
-  cmd.dispatch(gradient_, {intensity, gradient}, p, groups(width), groups(height));
+                                      const gpu::BufferPtr& gradient, int width, int height,
+                                      const std::optional<PixelRect>& rect) const {
+  const PixelRect r = rect ? rect->clamped(width, height) : PixelRect::full(width, height);
+  if (r.empty()) return;
+  const L::GradientParams p{static_cast<uint32_t>(width), static_cast<uint32_t>(height), uint32_t(r.x0), uint32_t(r.y0),
+                            uint32_t(r.x1),               uint32_t(r.y1)};
+  cmd.dispatch(gradient_, {intensity, gradient}, p, groups(r.width()), groups(r.height()));
 }
 
 void Preprocessor::record_frame(gpu::CommandList& cmd, FramePyramid& f, float metres_per_unit,

@@ -4,9 +4,11 @@
 // intensity gradients at every level. Each step is one kernel (shaders/*.comp) with a CPU
 // reference in preprocess_reference.h.
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "common/intrinsics.h"
+#include "common/pixel_rect.h"
 #include "gpu/stream.h"
 #include "kernels/preprocess_params.h"
 
@@ -56,8 +58,9 @@ class Preprocessor {
                         int height) const;
   void vertex_normal_map(gpu::CommandList& cmd, const gpu::BufferPtr& depth_m, const gpu::BufferPtr& vertex,
                          const gpu::BufferPtr& normal, const Intrinsics& intrinsics) const;
+  // Gradients of the pixels in `rect` (default: all); reads around it, clamped at the borders.
   void intensity_gradient(gpu::CommandList& cmd, const gpu::BufferPtr& intensity, const gpu::BufferPtr& gradient,
-                          int width, int height) const;
+                          int width, int height, const std::optional<PixelRect>& rect = std::nullopt) const;
 
   // The whole chain for a frame whose raw_depth and rgb buffers are filled.
   void record_frame(gpu::CommandList& cmd, FramePyramid& frame, float metres_per_unit, const PreprocessParams& params) const;

@@ -171,8 +171,12 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   PredictionParams prediction;
   prediction.min_confidence = params_.slam.fusion.stable_confidence;
   prediction.recent_window_frames = params_.slam.prediction_recent_window_frames;
+  // An object is predicted only around the pixels it works on: its residual rectangle, plus as
+  // much again for the pixels its motion carries them to.
+  std::optional<PixelRect> rect;
+  if (m.id != 0) rect = m.residual_rect.grown(params_.costs.object_margin_px);
   gpu::CommandList c = m.stream.begin();
-  surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
+  surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_, rect);
   const bool unclaimed = m.id == 0 && unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
   const uint32_t keep = (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u);
   if (params_.motion_segmentation) motion_.mask_levels(c, live_.levels, m.masked, labels_, keep, m.track_rect);

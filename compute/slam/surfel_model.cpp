@@ -92,6 +92,7 @@ ModelPrediction ModelPrediction::allocate(gpu::Context& ctx, const Intrinsics& i
   const size_t n0 = size_t(intrinsics.width) * intrinsics.height;
   p.depth_index = gpu::Buffer::create(ctx, n0 * 8, name + " depth/index");
   p.index_map = gpu::Buffer::create(ctx, n0 * 4, name + " index map");
+  p.written = PixelRect::full(intrinsics.width, intrinsics.height);  // fresh buffers hold anything
   return p;
 }
 
@@ -108,9 +109,15 @@ SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor&
                      sizeof(L::RemoveRegionParams)) {}
 
 void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
-                              ModelPrediction& out, const PredictionParams& params, int frame) const {
+                              ModelPrediction& out, const PredictionParams& params, int frame,
+                              const std::optional<PixelRect>& rect) const {
   const auto& l0 = out.levels.at(0);
   const Intrinsics& k = l0.intrinsics;
+  const PixelRect full = PixelRect::full(k.width, k.height);
+  const PixelRect area = rect ? rect->clamped(k.width, k.height) : full;
+  // Everything outside the last call's rectangle is empty already: clearing that rectangle and
+  // rendering this one leaves everything outside this one empty.
+  const PixelRect cover = area.united(out.written);
   L::SplatParams sp{};
   to_rows(T_camera_model, sp.T_camera_model);
   sp.fx = float(k.fx), sp.fy = float(k.fy), sp.cx = float(k.cx), sp.cy = float(k.cy);
@@ -122,21 +129,37 @@ void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, c
   sp.grid_scale = 1;
   sp.footprint_px = uint32_t(params.footprint_px);
   sp.offset_penalty_rel = params.offset_penalty_rel;
-  cmd.fill(out.depth_index, 0xFFFFFFFFu);
-  cmd.barrier();
-  splat(cmd, model.surfels(), out.depth_index, sp);
-  cmd.barrier();
+  if (!area.empty()) {
+    // The resolve reads only the area's keys; the splat may write anywhere.
+    const size_t row_bytes = size_t(k.width) * 8;
+    cmd.fill(out.depth_index, 0xFFFFFFFFu, size_t(area.y0) * row_bytes, size_t(area.height()) * row_bytes);
+    cmd.barrier();
+    splat(cmd, model.surfels(), out.depth_index, sp);
+    cmd.barrier();
+  }
+  if (cover.empty()) return;
   L::ResolveParams rp{};
   std::copy(sp.T_camera_model, sp.T_camera_model + 12, rp.T_camera_model);
   rp.fx = sp.fx, rp.fy = sp.fy, rp.cx = sp.cx, rp.cy = sp.cy, rp.width = sp.width, rp.height = sp.height;
+  rp.x0 = uint32_t(cover.x0), rp.y0 = uint32_t(cover.y0), rp.x1 = uint32_t(cover.x1), rp.y1 = uint32_t(cover.y1);
+  rp.area_x0 = uint32_t(area.x0), rp.area_y0 = uint32_t(area.y0), rp.area_x1 = uint32_t(area.x1),
+  rp.area_y1 = uint32_t(area.y1);
   resolve(cmd, model.surfels(), out.depth_index, l0, out.index_map, rp);
   cmd.barrier();
+  // Level l pixel (x, y) copies level l-1 pixel (2x, 2y): outside the area's level-l rectangle
+  // that pixel lies outside the area's level l-1 rectangle, so it is empty too.
   for (size_t l = 1; l < out.levels.size(); ++l) {
-    subsample(cmd, out.levels[l - 1], out.levels[l]);
+    subsample(cmd, out.levels[l - 1], out.levels[l], cover.at_level(int(l), out.levels[l].width, out.levels[l].height));
     cmd.barrier();
   }
-  for (auto& level : out.levels) preprocessor_.intensity_gradient(cmd, level.intensity, level.gradient, level.width, level.height);
+  // One pixel beyond the covered intensities, as far as the 3x3 Sobel window reaches.
+  for (size_t l = 0; l < out.levels.size(); ++l) {
+    auto& level = out.levels[l];
+    const PixelRect r = cover.at_level(int(l), level.width, level.height).grown(1).clamped(level.width, level.height);
+    preprocessor_.intensity_gradient(cmd, level.intensity, level.gradient, level.width, level.height, r);
+  }
   cmd.barrier();
+  out.written = area;
 }
 
 void SurfelPipelines::splat(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& grid,
@@ -147,15 +170,19 @@ void SurfelPipelines::splat(gpu::CommandList& cmd, const gpu::BufferPtr& surfels
 void SurfelPipelines::resolve(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& depth_index,
                               const kernels::FramePyramid::Level& out, const gpu::BufferPtr& index_map,
                               const L::ResolveParams& p) const {
-  cmd.dispatch(resolve_, {surfels, depth_index, out.vertex, out.normal, out.intensity, index_map}, p, tiles(out.width),
-               tiles(out.height));
+  const int w = int(std::min(p.x1, p.width)) - int(p.x0), h = int(std::min(p.y1, p.height)) - int(p.y0);
+  if (w <= 0 || h <= 0) return;
+  cmd.dispatch(resolve_, {surfels, depth_index, out.vertex, out.normal, out.intensity, index_map}, p, tiles(w), tiles(h));
 }
 
 void SurfelPipelines::subsample(gpu::CommandList& cmd, const kernels::FramePyramid::Level& src,
-                                const kernels::FramePyramid::Level& dst) const {
-  const L::SubsampleParams p{uint32_t(src.width), uint32_t(src.height), uint32_t(dst.width), uint32_t(dst.height)};
+                                const kernels::FramePyramid::Level& dst, const std::optional<PixelRect>& rect) const {
+  const PixelRect r = rect ? rect->clamped(dst.width, dst.height) : PixelRect::full(dst.width, dst.height);
+  if (r.empty()) return;
+  const L::SubsampleParams p{uint32_t(src.width), uint32_t(src.height), uint32_t(dst.width), uint32_t(dst.height),
+                             uint32_t(r.x0),      uint32_t(r.y0),       uint32_t(r.x1),      uint32_t(r.y1)};
   cmd.dispatch(subsample_, {src.vertex, src.normal, src.intensity, dst.vertex, dst.normal, dst.intensity}, p,
-               tiles(dst.width), tiles(dst.height));
+               tiles(r.width()), tiles(r.height()));
 }
 
 namespace {

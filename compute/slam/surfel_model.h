@@ -68,6 +68,9 @@ struct ModelPrediction {
   std::vector<kernels::FramePyramid::Level> levels;  // depth_m unused (null)
   gpu::BufferPtr depth_index;  // uint64 per pixel at level 0
   gpu::BufferPtr index_map;    // uint surfel index per pixel at level 0 (0xFFFFFFFF = none)
+  // Level-0 pixels outside this rectangle are empty in every map (gradients: zero beyond one
+  // pixel of it at each level); predict() keeps it so, clearing only what the last call wrote.
+  PixelRect written;
   static ModelPrediction allocate(gpu::Context& ctx, const Intrinsics& intrinsics, int levels, const std::string& name);
 };
 
@@ -81,9 +84,13 @@ class SurfelPipelines {
  public:
   SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor& preprocessor);
 
-  // Renders `model` seen from a camera at T_camera_model into `out` (all levels).
+  // Renders `model` seen from a camera at T_camera_model into `out` (all levels). With `rect`
+  // (level-0 pixels) only that part of the view is rendered and everything else is empty: the
+  // maps equal a whole-view prediction in which no surfel lands outside the rectangle, at the
+  // cost of the rectangle and of the last call's rectangle instead of the view.
   void predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
-               ModelPrediction& out, const PredictionParams& params, int frame) const;
+               ModelPrediction& out, const PredictionParams& params, int frame,
+               const std::optional<PixelRect>& rect = std::nullopt) const;
 
   // Fuses the live frame (level 0 of `live`) into `model` seen at T_camera_model, then removes
   // unstable and free-space surfels. With `labels` (uint per pixel), only pixels whose label is
@@ -114,8 +121,9 @@ class SurfelPipelines {
   void resolve(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& depth_index,
                const kernels::FramePyramid::Level& out, const gpu::BufferPtr& index_map,
                const gpu_layout::ResolveParams& p) const;
-  void subsample(gpu::CommandList& cmd, const kernels::FramePyramid::Level& src,
-                 const kernels::FramePyramid::Level& dst) const;
+  // The resolve writes p's [x0, x1) x [y0, y1); the subsample `rect` of dst (default: all).
+  void subsample(gpu::CommandList& cmd, const kernels::FramePyramid::Level& src, const kernels::FramePyramid::Level& dst,
+                 const std::optional<PixelRect>& rect = std::nullopt) const;
   void associate(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
   void update(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
   void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, const gpu::BufferPtr& depth_m,

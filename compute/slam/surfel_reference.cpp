@@ -86,6 +86,7 @@ PredictedMaps resolve(const std::vector<Surfel>& surfels, const std::vector<uint
   PredictedMaps m{Image<glm::vec4>(w, h), Image<glm::vec4>(w, h), Image<float>(w, h), Image<uint32_t>(w, h, 0xFFFFFFFFu)};
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
+      if (x < int(p.area_x0) || x >= int(p.area_x1) || y < int(p.area_y0) || y >= int(p.area_y1)) continue;
       const uint64_t key = depth_index[size_t(y) * w + x];
       if (key == kEmpty) continue;
       const uint32_t si = uint32_t(key & 0xFFFFFFFFu);

@@ -24,6 +24,7 @@ struct PredictedMaps {
   Image<float> intensity;
   Image<uint32_t> index;
 };
+// The whole view: pixels outside p's area are empty (p's x0..y1 only bound the GPU's writes).
 PredictedMaps resolve(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& depth_index,
                       const gpu_layout::ResolveParams& p);
 PredictedMaps subsample(const PredictedMaps& src);

@@ -73,6 +73,7 @@ struct VertexNormalParams {
 struct GradientParams {
   uint width;
   uint height;
+  uint x0, y0, x1, y1;  // pixels computed: [x0, x1) x [y0, y1) (reads outside it, clamped at the borders)
 };
 
 // ---- surfel models ---------------------------------------------------------------------------
@@ -120,6 +121,11 @@ struct ResolveParams {
   float fx, fy, cx, cy;
   uint width, height;
   uint pad0, pad1;
+  // Pixels written: [x0, x1) x [y0, y1); of those, only the ones in the area
+  // [area_x0, area_x1) x [area_y0, area_y1) are resolved, the rest are written empty (so a
+  // smaller area than last frame's leaves no stale pixels where the callers cover both).
+  uint x0, y0, x1, y1;
+  uint area_x0, area_y0, area_x1, area_y1;
 };
 
 // ---- subsample_prediction.comp: predicted maps of level l+1 from level l (pixel (2x, 2y)) ----
@@ -131,6 +137,7 @@ struct ResolveParams {
 #define SUBSAMPLE_BINDING_DST_INTENSITY 5
 struct SubsampleParams {
   uint src_width, src_height, dst_width, dst_height;
+  uint x0, y0, x1, y1;  // destination pixels written: [x0, x1) x [y0, y1)
 };
 
 // ---- fuse_associate.comp / fuse_update.comp: projective data association and fusion --------

@@ -183,6 +183,7 @@ TEST_F(SurfelKernels, ResolveAndSubsampleMatchReference) {
     L::ResolveParams rp{};
     std::copy(sp.T_camera_model, sp.T_camera_model + 12, rp.T_camera_model);
     rp.fx = sp.fx, rp.fy = sp.fy, rp.cx = sp.cx, rp.cy = sp.cy, rp.width = sp.width, rp.height = sp.height;
+    rp.x1 = rp.area_x1 = sp.width, rp.y1 = rp.area_y1 = sp.height;
     auto prediction = slam::ModelPrediction::allocate(ctx(), k, 2, "prediction");
     auto sb = upload(surfels, "surfels"), gb = upload(grid, "grid");
     stream().run([&](gpu::CommandList& c) {
@@ -208,6 +209,71 @@ TEST_F(SurfelKernels, ResolveAndSubsampleMatchReference) {
       EXPECT_EQ(bad, 0) << name(s) << " level " << l;
     }
     EXPECT_EQ(download<uint32_t>(prediction.index_map, cpu0.index.size()), cpu0.index.pixels) << name(s);
+  }
+}
+
+// Prediction restricted to rectangles, one after another on the same buffers (as a tracked
+// object's is, frame after frame): every map of every level equals the references' whole-view
+// prediction from the same keys with nothing outside the rectangle, so no pixel of an earlier,
+// larger rectangle is left behind. The keys are the GPU's (the splat has its own test).
+TEST_F(SurfelKernels, PredictionInRectanglesMatchesReference) {
+  for (Size s : kSizes) {
+    const Intrinsics k = intrinsics_for(s);
+    const auto T_camera_model = test_pose();
+    const auto surfels = make_surfels(s, k, 3, T_camera_model.inverse());
+    slam::SurfelModel model(ctx(), 1, unsigned(surfels.size()) + 1);
+    model.upload(stream(), surfels);
+    auto prediction = slam::ModelPrediction::allocate(ctx(), k, 3, "prediction");
+    const int w = s.width, h = s.height;
+    const std::optional<PixelRect> rects[] = {std::nullopt,
+                                              PixelRect{w / 4, h / 4, w / 2 + 3, h / 2 + 1},
+                                              PixelRect{w / 3, h / 5, w, h},
+                                              PixelRect{},
+                                              PixelRect{-5, -5, 7, 9},
+                                              PixelRect{w / 2, 0, w / 2 + 1, h},
+                                              std::nullopt};
+    int call = 0;
+    for (const auto& rect : rects) {
+      const std::string what = name(s) + " call " + std::to_string(call);
+      // A little motion between calls, so that stale pixels would differ.
+      const auto T = test_pose(0.002 * call, {0.001 * call, 0, 0}) * T_camera_model;
+      stream().run([&](gpu::CommandList& c) { pipes_->predict(c, model, T, prediction, {}, 100, rect); });
+      ++call;
+      const PixelRect area = rect ? rect->clamped(w, h) : PixelRect::full(w, h);
+      EXPECT_EQ(prediction.written, area) << what;
+      L::ResolveParams rp{};
+      slam::to_rows(T, rp.T_camera_model);
+      rp.fx = float(k.fx), rp.fy = float(k.fy), rp.cx = float(k.cx), rp.cy = float(k.cy);
+      rp.width = uint32_t(w), rp.height = uint32_t(h);
+      rp.area_x0 = uint32_t(area.x0), rp.area_y0 = uint32_t(area.y0), rp.area_x1 = uint32_t(area.x1),
+      rp.area_y1 = uint32_t(area.y1);
+      const auto keys = download<uint64_t>(prediction.depth_index, size_t(w) * h);
+      std::vector<ref::PredictedMaps> cpu{ref::resolve(surfels, keys, rp)};
+      if (!area.empty() && s.width >= 160) {
+        size_t filled = 0;
+        for (uint32_t i : cpu[0].index.pixels) filled += i != 0xFFFFFFFFu;
+        EXPECT_GT(filled, 0u) << what << ": the rectangle must see part of the scene";
+      }
+      for (size_t l = 1; l < prediction.levels.size(); ++l) cpu.push_back(ref::subsample(cpu.back()));
+      EXPECT_EQ(download<uint32_t>(prediction.index_map, size_t(w) * h), cpu[0].index.pixels) << what;
+      for (size_t l = 0; l < prediction.levels.size(); ++l) {
+        const auto& level = prediction.levels[l];
+        const size_t n = size_t(level.width) * level.height;
+        ASSERT_EQ(n, cpu[l].vertex.size());
+        const auto v = download<glm::vec4>(level.vertex, n), nn = download<glm::vec4>(level.normal, n);
+        const auto in = download<float>(level.intensity, n);
+        const auto g = download<glm::vec2>(level.gradient, n);
+        const auto g_cpu = kernels::reference::intensity_gradient(cpu[l].intensity);
+        int bad = 0;
+        for (size_t i = 0; i < n; ++i)
+          if (v[i].w != cpu[l].vertex.pixels[i].w ||
+              glm::length(glm::vec3(v[i] - cpu[l].vertex.pixels[i])) > 1e-5f * (1 + std::abs(v[i].z)) ||
+              glm::length(glm::vec3(nn[i] - cpu[l].normal.pixels[i])) > 1e-5f ||
+              std::abs(in[i] - cpu[l].intensity.pixels[i]) > 1e-3f || glm::length(g[i] - g_cpu.pixels[i]) > 1e-3f)
+            ++bad;
+        EXPECT_EQ(bad, 0) << what << " level " << l;
+      }
+    }
   }
 }
 
