@@ -105,11 +105,17 @@ struct CoFusion::Model {
   Eigen::Isometry3d last_motion = Eigen::Isometry3d::Identity();  // previous frame's, the guess
   int pixels = 0;
 
+  // Its pose when it last covered a spawn-sized region and tracked (an object leaving the view is
+  // tracked from fewer and fewer pixels at the border: that pose is the better guess when it
+  // comes back).
+  std::optional<Eigen::Isometry3d> T_world_model_last_seen;
+
   int first_frame;
   int last_frame;
   int unseen_frames = 0;
   bool on_probation = true;  // objects: not yet shown to move relative to the background
-  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;  // (frame, T_world_model)
+  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;  // (frame, T_world_model) while active
+  std::vector<std::pair<int, Eigen::Isometry3d>> seen_trajectory;  // of those, the frames it was tracked in
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -365,6 +371,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     if (m->state != ModelState::kActive) continue;
     slot_to_id[m->slot] = static_cast<uint16_t>(m->id);
     m->trajectory.emplace_back(frame_, m->surfels.T_world_model);
+    // A failed tracking leaves a guessed pose (an object that left the view): not reported.
+    if (!(m->tracked && m->tracking.failed)) m->seen_trajectory.emplace_back(frame_, m->surfels.T_world_model);
     ModelStatus s;
     s.id = m->id;
     s.state = m->state;
@@ -534,31 +542,33 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
     const double percent = 100.0 * double(pixels.size()) / double(n);
     char share[32];
     std::snprintf(share, sizeof share, "%.1f%%", percent);
-    bool reactivated = false;
-    if (p.reactivate) {
-      for (auto& m : models_) {
-        if (m->state != ModelState::kInactive) continue;
-        if (try_reactivate(*m, sp.slot, centroid)) {
-          out.events.push_back("frame " + std::to_string(frame_) + ": re-activated model " + std::to_string(m->id) +
-                               " (" + share + " of the image)");
-          reactivated = true;
+    // A new or re-activated model has no velocity yet; the region's centroid moved by `step` over
+    // the last frame, which is the first tracking's guess (an object entering fast, 3 cm per
+    // frame, moves out of the pixels its model is masked to, and from a zero guess the model stays
+    // put).
+    Eigen::Isometry3d velocity_guess = Eigen::Isometry3d::Identity();
+    if (sp.centroid && sp.previous_centroid) {
+      const Eigen::Vector3d step = *sp.centroid - *sp.previous_centroid;
+      if (step.norm() <= p.spawn_max_velocity_guess_m)
+        velocity_guess = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
+    }
+    Model* reactivated = nullptr;
+    if (p.reactivate)
+      for (auto& m : models_)
+        if (m->state == ModelState::kInactive && try_reactivate(*m, sp.slot, centroid)) {
+          reactivated = m.get();
           break;
         }
-      }
-    }
-    if (!reactivated) {
+    if (reactivated) {
+      reactivated->last_motion = velocity_guess;
+      out.events.push_back("frame " + std::to_string(frame_) + ": re-activated model " + std::to_string(reactivated->id) +
+                           " (" + share + " of the image)");
+    } else {
       Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
       T_camera_model.translation() = centroid;
       Model& m = create_model(sp.slot, T_world_camera_ * T_camera_model);
       m.pixels = static_cast<int>(pixels.size());
-      // A new model has no velocity yet; the region's centroid moved by `step` over the last
-      // frame, which is the first tracking's guess (an object entering fast, 3 cm per frame, moves
-      // out of the pixels the new model is masked to, and from a zero guess its model stays put).
-      if (sp.centroid && sp.previous_centroid) {
-        const Eigen::Vector3d step = *sp.centroid - *sp.previous_centroid;
-        if (step.norm() <= p.spawn_max_velocity_guess_m)
-          m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
-      }
+      m.last_motion = velocity_guess;
       spawned_slots.push_back(sp.slot);
       out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" +
                            share + " of the image)");
@@ -573,6 +583,8 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   for (auto& m : models_) {
     if (m->state != ModelState::kActive) continue;
     m->pixels = per_slot[m->slot];
+    if (m->id != 0 && m->tracked && !m->tracking.failed && double(m->pixels) >= p.spawn_min_area_fraction * double(n))
+      m->T_world_model_last_seen = m->surfels.T_world_model;
     if (m->pixels > 0) {
       m->last_frame = frame_;
       m->unseen_frames = 0;
@@ -585,27 +597,37 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   return slots;
 }
 
-// Tries to align inactive model m with the region labelled `slot`: predicted where the region is
-// (its last orientation relative to the camera, its centre on the region's centroid), then tracked
-// with the region's pixels only.
+// Tries to align inactive model m with the region labelled `slot`, tracked with the region's
+// pixels only from two starts: its last orientation relative to the camera with its centre on the
+// region's centroid, and where it was last seen (an object that left and comes back the same
+// way, or the camera looking back at it). The start whose alignment has the most inliers wins if
+// it passes the thresholds.
 bool CoFusion::try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera) {
   const std::vector<Surfel> surfels = m.surfels.download(m.stream);
   if (surfels.empty()) return false;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const Surfel& s : surfels) centre += Eigen::Vector3d(s.px, s.py, s.pz);
   centre /= double(surfels.size());
-  Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
-  T_camera_model.translation() += centroid_camera - T_camera_model * centre;
+  std::vector<Eigen::Isometry3d> starts;  // T_camera_model
+  starts.push_back(T_world_camera_.inverse() * m.surfels.T_world_model);
+  starts.back().translation() += centroid_camera - starts.back() * centre;
+  if (m.T_world_model_last_seen) starts.push_back(T_world_camera_.inverse() * *m.T_world_model_last_seen);
 
   PredictionParams prediction;
   prediction.min_confidence = params_.slam.fusion.stable_confidence;
-  m.stream.run([&](gpu::CommandList& c) {
-    surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
-    motion_.mask_levels(c, live_.levels, m.masked, labels_, 1u << slot);
-  });
-  const TrackingResult r = m.tracker.track(m.stream, m.masked, m.prediction.levels, Eigen::Isometry3d::Identity());
   const LifecycleParams& p = params_.lifecycle;
-  if (r.failed || r.inlier_ratio < p.reactivate_min_inlier_ratio || r.icp_rms_m > p.reactivate_max_rms_m) return false;
+  std::optional<std::pair<TrackingResult, Eigen::Isometry3d>> best;
+  for (const Eigen::Isometry3d& T_camera_model : starts) {
+    m.stream.run([&](gpu::CommandList& c) {
+      surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
+      motion_.mask_levels(c, live_.levels, m.masked, labels_, 1u << slot);
+    });
+    const TrackingResult r = m.tracker.track(m.stream, m.masked, m.prediction.levels, Eigen::Isometry3d::Identity());
+    if (r.failed || r.inlier_ratio < p.reactivate_min_inlier_ratio || r.icp_rms_m > p.reactivate_max_rms_m) continue;
+    if (!best || r.inlier_ratio > best->first.inlier_ratio) best.emplace(r, T_camera_model);
+  }
+  if (!best) return false;
+  const auto& [r, T_camera_model] = *best;
   m.surfels.T_world_model = T_world_camera_ * r.T_reference_live.inverse() * T_camera_model;
   m.state = ModelState::kActive;
   m.slot = slot;
@@ -653,7 +675,7 @@ std::vector<ModelSnapshot> CoFusion::models() const {
     s.model = &m->surfels;
     s.first_frame = m->first_frame;
     s.last_frame = m->last_frame;
-    s.trajectory = m->trajectory;
+    s.trajectory = m->seen_trajectory;
     out.push_back(std::move(s));
   }
   std::sort(out.begin(), out.end(), [](const ModelSnapshot& a, const ModelSnapshot& b) { return a.id < b.id; });

@@ -174,7 +174,9 @@ struct ModelSnapshot {
   ModelState state = ModelState::kActive;
   const SurfelModel* model = nullptr;
   int first_frame = 0, last_frame = 0;
-  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;  // (frame, T_world_model) while active
+  // (frame, T_world_model) in the frames it was active and its tracking did not fail (the frame
+  // it spawned or re-activated included): a failed tracking only guesses the pose.
+  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;
 };
 
 // Thread safety: one thread calls process() at a time; it uses its own worker threads inside.

@@ -2,6 +2,7 @@
 // truth: discovery of moving objects, spurious models, per-object and camera ATE, segmentation IoU.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <opencv2/core.hpp>
 #include <set>
@@ -187,6 +188,46 @@ TEST_F(CoFusionScenes, FastEnteringObjectIsTrackedByOneModelSlow) {
       for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T});
   ASSERT_GE(est.size(), 15u);
   EXPECT_LE(eval::compute_object_trajectory_errors(seq.object_trajectory(ball), est).tracked_point_m.rmse, 0.01);
+}
+
+// An object carried out of the view goes inactive and, when it is carried back in, its model is
+// re-activated against its stored geometry (from where it was last seen) instead of a duplicate
+// spawning; it is then tracked and segmented as before it left.
+TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("leave_and_return"));
+  const SceneRun r = run(seq);
+  expect_issue_bounds(seq, r);
+
+  std::set<int> object_models;
+  for (const auto& f : r.frames)
+    for (const auto& m : f.active)
+      if (m.id != 0) object_models.insert(m.id);
+  ASSERT_EQ(object_models.size(), 1u) << "one model for the box, before and after it was away";
+  const int id = *object_models.begin();
+  const auto has_event = [&](const std::string& what) {
+    return std::any_of(r.events.begin(), r.events.end(),
+                       [&](const std::string& e) { return e.find(what) != std::string::npos; });
+  };
+  EXPECT_TRUE(has_event("model " + std::to_string(id) + " left the view")) << "it must have gone inactive";
+  EXPECT_TRUE(has_event("re-activated model " + std::to_string(id)));
+
+  // Covered again within 10 frames of its first pixels back in the view, and from then to the end.
+  const int box = 1;
+  const auto visible = [&](int f) { return cv::countNonZero(r.gt_masks[size_t(f)] == box) > 0; };
+  int back = 0;
+  while (back < seq.size() && visible(back)) ++back;  // leaves
+  while (back < seq.size() && !visible(back)) ++back;  // comes back
+  ASSERT_LT(back, seq.size() - 10) << "scene: the box must come back";
+  int first_covered = -1, covered = 0;
+  for (int f = back; f < seq.size(); ++f) {
+    const bool c = iou(r.gt_masks[size_t(f)], r.frames[size_t(f)].labels, box, id) >= 0.5;
+    if (c && first_covered < 0) first_covered = f;
+    covered += c && first_covered >= 0;
+  }
+  ASSERT_GE(first_covered, 0);
+  std::printf("  back in view at frame %d, covered from %d\n", back, first_covered);
+  EXPECT_LE(first_covered - back, 10);
+  EXPECT_GE(covered, seq.size() - first_covered - 2) << "frames covered since frame " << first_covered;
 }
 
 TEST_F(CoFusionScenes, StaticRoomSpawnsNoModel) {
