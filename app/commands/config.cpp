@@ -127,7 +127,8 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const json& p = root["costs"];
     const std::string where = file + ": costs";
     check_keys(p, {"photometric_m", "photometric_reference_rms", "revealed_margin_m", "revealed_cost_m", "max_cost_m", "noise_reference_depth_m",
-                   "max_explained_cost_m", "object_margin_px"},
+                   "max_explained_cost_m", "object_margin_px", "occluding_margin_m", "unseen_surface_cost_m",
+                   "unseen_surface_reach_px"},
                where);
     read(p, "noise_reference_depth_m", config.costs.noise_reference_depth_m, where);
     read(p, "max_explained_cost_m", config.costs.max_explained_cost_m, where);
@@ -138,8 +139,12 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "revealed_cost_m", c.revealed_cost_m, where);
     read(p, "max_cost_m", c.max_cost_m, where);
     read(p, "object_margin_px", c.object_margin_px, where);
+    read(p, "occluding_margin_m", c.occluding_margin_m, where);
+    read(p, "unseen_surface_cost_m", c.unseen_surface_cost_m, where);
+    read(p, "unseen_surface_reach_px", c.unseen_surface_reach_px, where);
     if (!(c.photometric_m >= 0 && c.revealed_margin_m > 0 && c.revealed_cost_m >= 0 && c.max_cost_m > 0 &&
-          c.object_margin_px >= 0))
+          c.object_margin_px >= 0 && c.occluding_margin_m >= 0 && c.unseen_surface_cost_m >= 0 &&
+          c.unseen_surface_reach_px >= 0))
       throw Error(where + ": costs and margins must be positive");
   }
   if (root.contains("lifecycle")) {

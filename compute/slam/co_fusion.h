@@ -65,6 +65,17 @@ struct MotionCostParams {
   // Its region can grow this much per frame (fast objects move 10-20 px per frame at 30 Hz),
   // and the cost of every object stays in proportion to its size.
   int object_margin_px = 32;
+  // An object turning or lifted shows surfaces its model has not seen. Where such a pixel lies
+  // within unseen_surface_reach_px of the object's geometry and at least occluding_margin_m in
+  // front of the background's predicted surface (so the background does not explain it either),
+  // the object's cost is unseen_surface_cost_m instead of "no geometry": otherwise the
+  // background's large cost there makes it an outlier, it is never fused into the object, and the
+  // growing unseen part spawns a second model for the same object (five_objects: two of five
+  // objects split). Below max_explained_cost_m, so it is fused. The reach keeps a neighbouring
+  // object that starts to move out of it.
+  float occluding_margin_m = 0.03f;
+  float unseen_surface_cost_m = 0.008f;
+  int unseen_surface_reach_px = 8;
 };
 
 // Model lifecycle (paper section "Addition of New Models", plus merging and re-activation).
