@@ -109,6 +109,9 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
       }
       if (!H.allFinite() || !b.allFinite()) return fail("non-finite linear system at " + where);
       result.eigenvalue_ratio = balanced_eigenvalue_ratio(H);
+      // A coarse level of a small object can be degenerate where the finer ones are not (a box
+      // face of a few dozen pixels at 80x60): it is skipped, not the whole tracking failed.
+      if (level > 0 && result.eigenvalue_ratio < params.min_eigenvalue_ratio) break;
       if (result.eigenvalue_ratio < params.min_eigenvalue_ratio)
         return fail("degenerate system at " + where + ": balanced eigenvalue ratio " +
                     fmt(result.eigenvalue_ratio) + " < " + fmt(params.min_eigenvalue_ratio) +

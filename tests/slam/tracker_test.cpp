@@ -310,6 +310,40 @@ TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
   EXPECT_NE(solved.failure_reason.find("diverged at level 3"), std::string::npos) << solved.failure_reason;
 }
 
+// A degenerate coarse level (a small object's face at 80x60) is skipped; a degenerate finest
+// level still fails the tracking.
+TEST(TrackerSolver, DegenerateCoarseLevelsAreSkippedButNotTheFinest) {
+  // Diagonal system with one direction (z rotation) nearly unobservable when `degenerate`.
+  const auto term = [](bool degenerate, double count) {
+    std::array<double, slam::LinearSystemSums::kTermValues> t{};
+    int k = 0;
+    for (int i = 0; i < 6; ++i)
+      for (int j = i; j < 6; ++j) t[size_t(k++)] = i == j ? (degenerate && i == 5 ? 1e-9 : 1e4) : 0.0;
+    t[27] = 1e-6 * count, t[28] = count;
+    return t;
+  };
+  const std::vector<long> pixels = {640 * 480, 320 * 240, 160 * 120};
+  std::vector<int> levels_seen;
+  bool finest_degenerate = false;
+  const slam::SumsAtLevel sums = [&](int level, const Isometry3d&, double) {
+    levels_seen.push_back(level);
+    slam::LinearSystemSums s;
+    s.valid_live_pixels = 6000;
+    s.icp = term(level > 0 || finest_degenerate, 5000);
+    return s;
+  };
+  slam::TrackerParams params;
+  params.use_photometric = false;
+  const Isometry3d guess = se3_exp((Vector6d() << 0.01, 0.02, 0.0, 0.0, 0.01, 0.0).finished());
+  const slam::TrackingResult r = slam::gauss_newton(pixels, sums, guess, params);
+  EXPECT_FALSE(r.failed) << r.failure_reason;
+  EXPECT_EQ(levels_seen, (std::vector<int>{2, 1, 0}));  // one look per coarse level
+  finest_degenerate = true;
+  const slam::TrackingResult d = slam::gauss_newton(pixels, sums, guess, params);
+  EXPECT_TRUE(d.failed);
+  EXPECT_NE(d.failure_reason.find("degenerate system at level 0"), std::string::npos) << d.failure_reason;
+}
+
 TEST(PixelRectTest, LevelsClampAndCoverTheSubsampledPixels) {
   const PixelRect r{5, 3, 11, 10};
   EXPECT_EQ(r.at_level(0, 640, 480), r);
