@@ -191,7 +191,8 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const json& p = root["segmentation"];
     const std::string where = file + ": segmentation";
     check_keys(p, {"slic", "crf", "cost_scale_m", "min_geometry_fraction", "no_geometry_cost_fraction",
-                   "no_geometry_cost_min_m", "no_geometry_cost_max_m", "outlier_threshold", "outlier_slope", "outlier_min_energy",
+                   "no_geometry_cost_min_m", "no_geometry_cost_max_m", "object_no_geometry_cost_max_m", "outlier_threshold",
+                   "outlier_slope", "outlier_min_energy",
                    "min_component_px"},
                where);
     auto& c = config.segmentation;
@@ -200,6 +201,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     read(p, "no_geometry_cost_fraction", c.no_geometry_cost_fraction, where);
     read(p, "no_geometry_cost_min_m", c.no_geometry_cost_min_m, where);
     read(p, "no_geometry_cost_max_m", c.no_geometry_cost_max_m, where);
+    read(p, "object_no_geometry_cost_max_m", c.object_no_geometry_cost_max_m, where);
     read(p, "outlier_threshold", c.outlier_threshold, where);
     read(p, "outlier_slope", c.outlier_slope, where);
     read(p, "outlier_min_energy", c.outlier_min_energy, where);

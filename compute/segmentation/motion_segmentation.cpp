@@ -34,7 +34,8 @@ MotionSegmenter::MotionSegmenter(MotionSegmentationParams params) : params_(std:
   if (!(p.min_geometry_fraction >= 0 && p.min_geometry_fraction <= 1))
     throw Error("motion segmentation: min_geometry_fraction must be in [0, 1]");
   if (!non_negative(p.no_geometry_cost_fraction) || !non_negative(p.no_geometry_cost_min_m) ||
-      !non_negative(p.no_geometry_cost_max_m) || p.no_geometry_cost_max_m < p.no_geometry_cost_min_m)
+      !non_negative(p.no_geometry_cost_max_m) || p.no_geometry_cost_max_m < p.no_geometry_cost_min_m ||
+      !non_negative(p.object_no_geometry_cost_max_m) || p.object_no_geometry_cost_max_m < p.no_geometry_cost_min_m)
     throw Error("motion segmentation: no-geometry costs must be >= 0 and finite, with min <= max");
   if (!std::isfinite(p.outlier_threshold) || !non_negative(p.outlier_slope) || !non_negative(p.outlier_min_energy))
     throw Error("motion segmentation: outlier energy parameters must be finite (slope and minimum >= 0)");
@@ -176,9 +177,10 @@ const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixe
 
   Unaries& u = unaries_;
   u.depth_range_m = depth_max >= depth_min ? depth_max - depth_min : 0.0f;
-  const float fixed_cost_m = std::min(
-      std::max(params_.no_geometry_cost_fraction * u.depth_range_m, params_.no_geometry_cost_min_m),
-      params_.no_geometry_cost_max_m);
+  const float unbounded_fixed_cost_m =
+      std::max(params_.no_geometry_cost_fraction * u.depth_range_m, params_.no_geometry_cost_min_m);
+  const float fixed_cost_m = std::min(unbounded_fixed_cost_m, params_.no_geometry_cost_max_m);
+  const float object_fixed_cost_m = std::min(unbounded_fixed_cost_m, params_.object_no_geometry_cost_max_m);
   const float step_x = sp.step_x_px > 0 ? sp.step_x_px : static_cast<float>(params_.slic.superpixel_size_px);
   const float step_y = sp.step_y_px > 0 ? sp.step_y_px : static_cast<float>(params_.slic.superpixel_size_px);
   const size_t L = static_cast<size_t>(M) + 1;
@@ -222,7 +224,8 @@ const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixe
         const double with_cost = s[kBaseSums + 2 * static_cast<size_t>(m)];
         const bool has_geometry = with_cost > 0 && with_cost >= p.min_geometry_fraction * s[6];
         const float cost_m =
-            has_geometry ? static_cast<float>(s[kBaseSums + 2 * static_cast<size_t>(m) + 1] / with_cost) : fixed_cost_m;
+            has_geometry ? static_cast<float>(s[kBaseSums + 2 * static_cast<size_t>(m) + 1] / with_cost)
+                         : (m == 0 ? fixed_cost_m : object_fixed_cost_m);
         e[m] = cost_m / p.cost_scale_m;
         if (has_geometry) {
           any_geometry = true;

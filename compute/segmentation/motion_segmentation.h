@@ -39,6 +39,13 @@ struct MotionSegmentationParams {
   // defaults), so a superpixel no model has seen yet (a deep frame: 1% of 4 m is 4 cm) never
   // becomes an outlier just for being unseen.
   float no_geometry_cost_max_m = 0.01f;
+  // The same bound for models 1.. (objects; model 0 is the background). At the outlier crossover
+  // (1.5 cm), so an object's model never wins a superpixel it has no geometry in by its unary:
+  // having seen nothing there is no evidence that the pixel moves with the object, and below the
+  // crossover a model took the pixels of a neighbouring object that started to move the same way
+  // (five_objects: objects 2 and 4 were found after 12 and 11 frames instead of 4). An object's own
+  // newly seen surfaces get their cost from the caller (MotionCostParams::unseen_surface_cost_m).
+  float object_no_geometry_cost_max_m = 0.015f;
   // Outlier energy, after Co-Fusion's code: max(outlier_threshold - outlier_slope * E_best,
   // outlier_min_energy), E_best the lowest energy among the models WITH geometry in the
   // superpixel (0 when none has: a model without geometry is no evidence of motion, so unseen

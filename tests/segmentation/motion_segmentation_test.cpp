@@ -57,7 +57,9 @@ TEST(MotionSegmentation, UnariesUseFixedCostWhereAModelHasNoGeometry) {
   const auto& u = seg.compute_unaries(f.sp, f.rgb.data(), f.depth_m.data(), spans(costs));
   ASSERT_EQ(u.nodes.size(), 4u);
   EXPECT_NEAR(u.depth_range_m, 4.0f, 1e-6);
-  const float fixed = 0.01f / 0.01f;  // min(1% of 4 m, 1 cm), in units of cost_scale_m
+  // In units of cost_scale_m: min(1% of 4 m, 1.5 cm) for an object (model 1), min(1% of 4 m,
+  // 1 cm) for the background (model 0).
+  const float fixed = 0.015f / 0.01f, background_fixed = 0.01f / 0.01f;
   const size_t L = 3;
   EXPECT_NEAR(u.energy[0 * L + 0], 0.2f, 1e-5);
   EXPECT_NEAR(u.energy[2 * L + 0], 0.4f, 1e-5);
@@ -65,6 +67,13 @@ TEST(MotionSegmentation, UnariesUseFixedCostWhereAModelHasNoGeometry) {
   EXPECT_NEAR(u.energy[1 * L + 1], fixed, 1e-5) << "20% coverage is no geometry";
   EXPECT_NEAR(u.energy[2 * L + 1], fixed, 1e-5);
   EXPECT_NEAR(u.energy[3 * L + 1], 0.3f, 1e-5);
+  {
+    auto without_background = costs;
+    without_background[0] = f.cost_per_quadrant({0.002f, 0.002f, 0.004f, kNaN});
+    MotionSegmenter seg_b{MotionSegmentationParams{}};
+    EXPECT_NEAR(seg_b.compute_unaries(f.sp, f.rgb.data(), f.depth_m.data(), spans(without_background)).energy[3 * L + 0],
+                background_fixed, 1e-5);
+  }
   // Node features: grid units (20 px step), mean colour and depth.
   EXPECT_NEAR(u.nodes[3].x, (29.5f) / 20.0f, 1e-5);
   EXPECT_NEAR(u.nodes[3].y, (29.5f) / 20.0f, 1e-5);
@@ -73,7 +82,7 @@ TEST(MotionSegmentation, UnariesUseFixedCostWhereAModelHasNoGeometry) {
 
   // Without the cap the fixed cost is 1% of the range; with a flat frame, the floor.
   MotionSegmentationParams uncapped;
-  uncapped.no_geometry_cost_max_m = 1.0f;
+  uncapped.no_geometry_cost_max_m = uncapped.object_no_geometry_cost_max_m = 1.0f;
   MotionSegmenter seg2{uncapped};
   EXPECT_NEAR(seg2.compute_unaries(f.sp, f.rgb.data(), f.depth_m.data(), spans(costs)).energy[0 * L + 1], 4.0f, 1e-5);
   std::fill(f.depth_m.begin(), f.depth_m.end(), 2.0f);

@@ -150,6 +150,13 @@ TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   expect_issue_bounds(seq, run(seq));
 }
 
+// Five objects picked up one after another, each next to others already moving the same way: the
+// benchmark's 6-model scene under the same bounds.
+TEST_F(CoFusionScenes, FiveObjectsAreDiscoveredTrackedAndSegmentedSlow) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("five_objects"));
+  expect_issue_bounds(seq, run(seq));
+}
+
 // A box pushed over the table slides along its own faces: little point-to-plane residual, so it
 // is found by its moving texture (the photometric part of the motion cost), while the hand-held
 // camera drifts and jitters. Then it is lifted, turned onto faces its model has not seen, carried
