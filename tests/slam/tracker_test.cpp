@@ -275,15 +275,21 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
 
 // Host-side solver: a coarse level where a (small) model has too few correspondences is skipped,
 // not solved; its step would be noise (here: a 1 m step, which the divergence rule rejects).
+// One term of the reduction with a diagonal J^T J, J^T r = b and `count` residuals of 1 mm.
+std::array<double, slam::LinearSystemSums::kTermValues> diagonal_term(const Vector6d& diagonal, const Vector6d& b,
+                                                                      double count) {
+  std::array<double, slam::LinearSystemSums::kTermValues> t{};
+  int k = 0;
+  for (int i = 0; i < 6; ++i)
+    for (int j = i; j < 6; ++j) t[size_t(k++)] = i == j ? diagonal(i) : 0.0;
+  for (int i = 0; i < 6; ++i) t[size_t(21 + i)] = b(i);
+  t[27] = 1e-6 * count, t[28] = count;
+  return t;
+}
+
 TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
   const auto term = [](double diagonal, double b, double count) {
-    std::array<double, slam::LinearSystemSums::kTermValues> t{};
-    int k = 0;
-    for (int i = 0; i < 6; ++i)
-      for (int j = i; j < 6; ++j) t[size_t(k++)] = i == j ? diagonal : 0.0;
-    for (int i = 0; i < 6; ++i) t[size_t(21 + i)] = i == 0 ? b : 0.0;
-    t[27] = 1e-6 * count, t[28] = count;
-    return t;
+    return diagonal_term(Vector6d::Constant(diagonal), (Vector6d() << b, 0, 0, 0, 0, 0).finished(), count);
   };
   const std::vector<long> pixels = {640 * 480, 320 * 240, 160 * 120, 80 * 60};
   std::vector<int> levels_seen;
@@ -315,12 +321,9 @@ TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
 TEST(TrackerSolver, DegenerateCoarseLevelsAreSkippedButNotTheFinest) {
   // Diagonal system with one direction (z rotation) nearly unobservable when `degenerate`.
   const auto term = [](bool degenerate, double count) {
-    std::array<double, slam::LinearSystemSums::kTermValues> t{};
-    int k = 0;
-    for (int i = 0; i < 6; ++i)
-      for (int j = i; j < 6; ++j) t[size_t(k++)] = i == j ? (degenerate && i == 5 ? 1e-9 : 1e4) : 0.0;
-    t[27] = 1e-6 * count, t[28] = count;
-    return t;
+    Vector6d diagonal = Vector6d::Constant(1e4);
+    if (degenerate) diagonal(5) = 1e-9;
+    return diagonal_term(diagonal, Vector6d::Zero(), count);
   };
   const std::vector<long> pixels = {640 * 480, 320 * 240, 160 * 120};
   std::vector<int> levels_seen;
