@@ -12,6 +12,7 @@
 #include <tbb/task_group.h>
 
 #include "common/se3.h"
+#include "common/window_count.h"
 
 namespace cofusion::slam {
 namespace {
@@ -231,24 +232,13 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
                                   ? float(p.photometric_m * p.photometric_reference_rms / rgb_rms)
                                   : p.photometric_m;
   // Objects: which pixels of the rectangle lie within unseen_surface_reach_px of one where the
-  // object has geometry (a box-window count over an integral image of the associated pixels).
+  // object has geometry.
   const float* bg_r = models_.front()->residuals_host.data();
-  const int rw = rect.width(), rh = rect.height(), reach = p.unseen_surface_reach_px;
-  std::vector<int> integral;
-  if (!background && rw > 0 && rh > 0) {
-    integral.assign(size_t(rw + 1) * size_t(rh + 1), 0);
-    for (int y = 0; y < rh; ++y)
-      for (int x = 0, row = 0; x < rw; ++x) {
-        row += r[4 * (size_t(y + rect.y0) * width + size_t(x + rect.x0)) + 3] == MOTION_STATUS_ASSOCIATED;
-        integral[size_t(y + 1) * size_t(rw + 1) + size_t(x + 1)] = integral[size_t(y) * size_t(rw + 1) + size_t(x + 1)] + row;
-      }
-  }
-  const auto near_geometry = [&](int x, int y) {  // rectangle coordinates
-    const int x0 = std::max(x - reach, 0), y0 = std::max(y - reach, 0);
-    const int x1 = std::min(x + reach + 1, rw), y1 = std::min(y + reach + 1, rh);
-    const auto at = [&](int xx, int yy) { return integral[size_t(yy) * size_t(rw + 1) + size_t(xx)]; };
-    return at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0) > 0;
-  };
+  const std::optional<WindowCount> with_geometry =
+      background ? std::nullopt
+                 : std::optional<WindowCount>(std::in_place, rect.width(), rect.height(), [&](int x, int y) {
+                     return r[4 * (size_t(y + rect.y0) * width + size_t(x + rect.x0)) + 3] == MOTION_STATUS_ASSOCIATED;
+                   });
   tbb::parallel_for(tbb::blocked_range<int>(rect.y0, rect.y1, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (size_t i = size_t(y) * width + size_t(rect.x0); i < size_t(y) * width + size_t(rect.x1); ++i) {
@@ -256,7 +246,7 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
         if (!background && v[3] == MOTION_STATUS_NO_MODEL) {
           const float* b = bg_r + 4 * i;
           if (b[3] == MOTION_STATUS_ASSOCIATED && b[1] < -p.occluding_margin_m &&
-              near_geometry(int(i % width) - rect.x0, y - rect.y0))
+              with_geometry->around(int(i % width) - rect.x0, y - rect.y0, p.unseen_surface_reach_px) > 0)
             costs[i] = p.unseen_surface_cost_m;
           continue;
         }

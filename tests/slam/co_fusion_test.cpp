@@ -8,6 +8,7 @@
 #include <set>
 
 #include "common/se3.h"
+#include "common/window_count.h"
 #include "eval/segmentation_metrics.h"
 #include "eval/trajectory_metrics.h"
 #include "slam/co_fusion.h"
@@ -238,6 +239,23 @@ TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
   std::printf("  back in view at frame %d, covered from %d\n", back, first_covered);
   EXPECT_LE(first_covered - back, 10);
   EXPECT_GE(covered, seq.size() - first_covered - 2) << "frames covered since frame " << first_covered;
+}
+
+// The window counts behind "near the object's geometry": against a direct count, windows
+// clipped at every border, an empty grid.
+TEST(WindowCountTest, MatchesDirectCountsIncludingClippedWindows) {
+  const int w = 13, h = 7;
+  const auto marked = [](int x, int y) { return (x * 7 + y * 3) % 5 == 0; };
+  const WindowCount count(w, h, marked);
+  for (int reach : {0, 1, 3, 20})
+    for (int y = -2; y < h + 2; ++y)
+      for (int x = -2; x < w + 2; ++x) {
+        int direct = 0;
+        for (int yy = std::max(y - reach, 0); yy <= std::min(y + reach, h - 1); ++yy)
+          for (int xx = std::max(x - reach, 0); xx <= std::min(x + reach, w - 1); ++xx) direct += marked(xx, yy);
+        ASSERT_EQ(count.around(x, y, reach), direct) << x << "," << y << " reach " << reach;
+      }
+  EXPECT_EQ(WindowCount(0, 0, marked).around(0, 0, 5), 0);
 }
 
 TEST_F(CoFusionScenes, StaticRoomSpawnsNoModel) {
