@@ -544,6 +544,11 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidate_centroids_.size());
     }
   }
+  // Object models without a pixel in this segmentation (before the new regions take theirs).
+  std::vector<int> slot_pixels(kSlots, 0);
+  for (uint8_t sl : slots)
+    if (sl != kNoSlot) ++slot_pixels[sl];
+  const auto lost = [&](const Model& m) { return m.slot >= 0 && slot_pixels[size_t(m.slot)] == 0; };
   uint32_t taken = 0;  // slots given to this frame's new models
   for (Spawn& sp : spawns) {
     sp.slot = free_slot(taken);
@@ -568,17 +573,26 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       if (step.norm() <= p.spawn_max_velocity_guess_m)
         velocity_guess = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
     }
+    // First an object model that lost every pixel this frame (its tracking slipped off the object,
+    // which now shows up as an outlier region), then the inactive ones.
     Model* reactivated = nullptr;
+    bool was_active = false;
     if (p.reactivate)
-      for (auto& m : models_)
-        if (m->state == ModelState::kInactive && try_reactivate(*m, sp.slot, centroid)) {
-          reactivated = m.get();
-          break;
+      for (const ModelState state : {ModelState::kActive, ModelState::kInactive}) {
+        for (auto& m : models_) {
+          if (m->state != state || m->id == 0 || (state == ModelState::kActive && !lost(*m))) continue;
+          if (try_reactivate(*m, sp.slot, centroid)) {
+            reactivated = m.get();
+            was_active = state == ModelState::kActive;
+            break;
+          }
         }
+        if (reactivated) break;
+      }
     if (reactivated) {
       reactivated->last_motion = velocity_guess;
-      out.events.push_back("frame " + std::to_string(frame_) + ": re-activated model " + std::to_string(reactivated->id) +
-                           " (" + share + " of the image)");
+      out.events.push_back("frame " + std::to_string(frame_) + ": " + (was_active ? "re-found model " : "re-activated model ") +
+                           std::to_string(reactivated->id) + " (" + share + " of the image)");
     } else {
       Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
       T_camera_model.translation() = centroid;
