@@ -170,7 +170,7 @@ struct CoFusionFrame {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   TrackingResult camera_tracking;  // the background's tracking (default on the first frame)
   std::vector<ModelStatus> active;  // after this frame's lifecycle changes; background first
-  std::vector<std::string> events;  // one line each: spawned, merged, deactivated, re-activated, deleted
+  std::vector<std::string> events;  // one line each: spawned, merged, deactivated, re-activated, re-found, deleted
   std::vector<uint16_t> labels;     // per pixel: model id, 0xFFFF = no model (no depth, or unassigned)
   std::vector<std::pair<std::string, double>> stage_ms;  // wall-clock per stage, in order
   // CPU segmentation: superpixels (run while the GPU tracks) and the rest (after tracking).
