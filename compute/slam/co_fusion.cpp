@@ -226,8 +226,10 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   const float z_ref = p.noise_reference_depth_m;
   const float sigma_ref = sigma(z_ref);
   // Photometric residuals in units of this frame's photometric noise (the background's RMS
-  // residual after tracking): motion blur and exposure changes raise every pixel's residual.
-  const double rgb_rms = models_.front()->tracking.rgb_rms;
+  // residual after tracking): motion blur and exposure changes raise every pixel's residual. An
+  // object's own RMS counts where it is larger: a turning object's faces change their shading
+  // (bright squares of a checker more than dark ones), which no motion explains.
+  const double rgb_rms = std::max(models_.front()->tracking.rgb_rms, background || m.tracking.failed ? 0.0 : m.tracking.rgb_rms);
   const float photometric_m = rgb_rms > p.photometric_reference_rms
                                   ? float(p.photometric_m * p.photometric_reference_rms / rgb_rms)
                                   : p.photometric_m;
