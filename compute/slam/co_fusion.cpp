@@ -629,11 +629,11 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   return slots;
 }
 
-// Tries to align inactive model m with the region labelled `slot`, tracked with the region's
-// pixels only from two starts: its last orientation relative to the camera with its centre on the
-// region's centroid, and where it was last seen (an object that left and comes back the same
-// way, or the camera looking back at it). The start whose alignment has the most inliers wins if
-// it passes the thresholds.
+// Tries to align model m (inactive, or an object that lost every pixel this frame) with the
+// region labelled `slot`, tracked with the region's pixels only, from two starts: its last
+// orientation relative to the camera with its centre on the region's centroid, and where it was
+// last seen (an object that left and comes back the same way, or the camera looking back at it).
+// The start whose alignment has the most inliers wins if it passes the thresholds.
 bool CoFusion::try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera) {
   const std::vector<Surfel> surfels = m.surfels.download(m.stream);
   if (surfels.empty()) return false;
