@@ -546,7 +546,8 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidate_centroids_.size());
     }
   }
-  // Object models without a pixel in this segmentation (before the new regions take theirs).
+  // Pixels per slot, kept up to date as the new regions take their (free) slots; an object model
+  // whose slot has none lost its object in this segmentation.
   std::vector<int> slot_pixels(kSlots, 0);
   for (uint8_t sl : slots)
     if (sl != kNoSlot) ++slot_pixels[sl];
@@ -555,7 +556,11 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   for (Spawn& sp : spawns) {
     sp.slot = free_slot(taken);
     taken |= 1u << sp.slot;
-    for (size_t i : regions[sp.region]) slots[i] = static_cast<uint8_t>(sp.slot);
+    for (size_t i : regions[sp.region]) {
+      if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
+      slots[i] = static_cast<uint8_t>(sp.slot);
+      ++slot_pixels[size_t(sp.slot)];
+    }
   }
   upload_labels(slots);
 
@@ -608,13 +613,10 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   }
 
   // Pixel counts, absence and retirement.
-  std::vector<int> per_slot(kSlots, 0);
-  for (uint8_t s : slots)
-    if (s != kNoSlot) ++per_slot[s];
-  unclaimed_fraction_ = double(per_slot[kUnclaimedSlot]) / double(n);
+  unclaimed_fraction_ = double(slot_pixels[kUnclaimedSlot]) / double(n);
   for (auto& m : models_) {
     if (m->state != ModelState::kActive) continue;
-    m->pixels = per_slot[m->slot];
+    m->pixels = slot_pixels[size_t(m->slot)];
     if (m->id != 0 && m->tracked && !m->tracking.failed && double(m->pixels) >= p.spawn_min_area_fraction * double(n))
       m->T_world_model_last_seen = m->surfels.T_world_model;
     if (m->pixels > 0) {

@@ -67,6 +67,15 @@ double iou(const cv::Mat& gt, const std::vector<uint16_t>& labels, int gt_id, in
   return uni ? double(inter) / double(uni) : 0.0;
 }
 
+// Ids of every object model that was active in some frame.
+std::set<int> object_model_ids(const SceneRun& r) {
+  std::set<int> ids;
+  for (const auto& f : r.frames)
+    for (const auto& m : f.active)
+      if (m.id != 0) ids.insert(m.id);
+  return ids;
+}
+
 // The multi-object issue's bounds on a generated scene: camera ATE <= 1 cm; every moving object
 // discovered (a model covering it with IoU >= 0.5) within 10 frames of its first motion; no other
 // object model lives more than 10 frames; tracked-point ATE <= 1 cm per object; mean per-label IoU
@@ -166,10 +175,7 @@ TEST_F(CoFusionScenes, SlidingThenLiftedBoxKeepsOneModelSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("one_object"));
   const SceneRun r = run(seq);
   expect_issue_bounds(seq, r);
-  std::set<int> object_models;
-  for (const auto& f : r.frames)
-    for (const auto& m : f.active)
-      if (m.id != 0) object_models.insert(m.id);
+  const std::set<int> object_models = object_model_ids(r);
   EXPECT_EQ(object_models.size(), 1u);
 }
 
@@ -213,10 +219,7 @@ TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
   const SceneRun r = run(seq);
   expect_issue_bounds(seq, r);
 
-  std::set<int> object_models;
-  for (const auto& f : r.frames)
-    for (const auto& m : f.active)
-      if (m.id != 0) object_models.insert(m.id);
+  const std::set<int> object_models = object_model_ids(r);
   ASSERT_EQ(object_models.size(), 1u) << "one model for the box, before and after it was away";
   const int id = *object_models.begin();
   const auto has_event = [&](const std::string& what) {

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <fstream>
 #include <iostream>
 #include <numbers>
@@ -287,24 +288,38 @@ std::array<double, slam::LinearSystemSums::kTermValues> diagonal_term(const Vect
   return t;
 }
 
+// Sums of ICP terms only (icp_at(level); 6000 valid live pixels), recording the levels asked for.
+slam::SumsAtLevel recorded_icp_sums(std::vector<int>& levels_seen,
+                                    std::function<std::array<double, slam::LinearSystemSums::kTermValues>(int)> icp_at) {
+  return [&levels_seen, icp_at = std::move(icp_at)](int level, const Isometry3d&, double) {
+    levels_seen.push_back(level);
+    slam::LinearSystemSums s;
+    s.valid_live_pixels = 6000;
+    s.icp = icp_at(level);
+    return s;
+  };
+}
+
+slam::TrackerParams icp_only_params() {
+  slam::TrackerParams params;
+  params.use_photometric = false;
+  return params;
+}
+
+const Isometry3d kSolverGuess = se3_exp((Vector6d() << 0.01, 0.02, 0.0, 0.0, 0.01, 0.0).finished());
+
 TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
   const auto term = [](double diagonal, double b, double count) {
     return diagonal_term(Vector6d::Constant(diagonal), (Vector6d() << b, 0, 0, 0, 0, 0).finished(), count);
   };
   const std::vector<long> pixels = {640 * 480, 320 * 240, 160 * 120, 80 * 60};
   std::vector<int> levels_seen;
-  const slam::SumsAtLevel sums = [&](int level, const Isometry3d&, double) {
-    levels_seen.push_back(level);
-    slam::LinearSystemSums s;
-    s.valid_live_pixels = 6000;
-    // Coarse levels: 50 correspondences whose system asks for a 1 m step along x. Finest: 5000
-    // correspondences, already converged (zero gradient).
-    s.icp = level > 0 ? term(1.0, -1.0, 50) : term(1e4, 0.0, 5000);
-    return s;
-  };
-  slam::TrackerParams params;
-  params.use_photometric = false;
-  const Isometry3d guess = se3_exp((Vector6d() << 0.01, 0.02, 0.0, 0.0, 0.01, 0.0).finished());
+  // Coarse levels: 50 correspondences whose system asks for a 1 m step along x. Finest: 5000
+  // correspondences, already converged (zero gradient).
+  const slam::SumsAtLevel sums = recorded_icp_sums(
+      levels_seen, [&](int level) { return level > 0 ? term(1.0, -1.0, 50) : term(1e4, 0.0, 5000); });
+  slam::TrackerParams params = icp_only_params();
+  const Isometry3d& guess = kSolverGuess;
   const slam::TrackingResult r = slam::gauss_newton(pixels, sums, guess, params);
   EXPECT_FALSE(r.failed) << r.failure_reason;
   EXPECT_TRUE(r.T_reference_live.isApprox(guess, 1e-12));
@@ -328,16 +343,10 @@ TEST(TrackerSolver, DegenerateCoarseLevelsAreSkippedButNotTheFinest) {
   const std::vector<long> pixels = {640 * 480, 320 * 240, 160 * 120};
   std::vector<int> levels_seen;
   bool finest_degenerate = false;
-  const slam::SumsAtLevel sums = [&](int level, const Isometry3d&, double) {
-    levels_seen.push_back(level);
-    slam::LinearSystemSums s;
-    s.valid_live_pixels = 6000;
-    s.icp = term(level > 0 || finest_degenerate, 5000);
-    return s;
-  };
-  slam::TrackerParams params;
-  params.use_photometric = false;
-  const Isometry3d guess = se3_exp((Vector6d() << 0.01, 0.02, 0.0, 0.0, 0.01, 0.0).finished());
+  const slam::SumsAtLevel sums =
+      recorded_icp_sums(levels_seen, [&](int level) { return term(level > 0 || finest_degenerate, 5000); });
+  const slam::TrackerParams params = icp_only_params();
+  const Isometry3d& guess = kSolverGuess;
   const slam::TrackingResult r = slam::gauss_newton(pixels, sums, guess, params);
   EXPECT_FALSE(r.failed) << r.failure_reason;
   EXPECT_EQ(levels_seen, (std::vector<int>{2, 1, 0}));  // one look per coarse level
