@@ -20,6 +20,7 @@ layout(std430, binding = ICP_RGB_BINDING_REF_NORMAL) readonly buffer RefNormal {
 layout(std430, binding = ICP_RGB_BINDING_REF_INTENSITY) readonly buffer RefIntensity { float ref_intensity[]; };
 layout(std430, binding = ICP_RGB_BINDING_REF_GRADIENT) readonly buffer RefGradient { vec2 ref_gradient[]; };
 layout(std430, binding = ICP_RGB_BINDING_PARTIALS) writeonly buffer Partials { float partials[]; };
+layout(std430, binding = ICP_RGB_BINDING_LIVE_GRADIENT) readonly buffer LiveGradient { vec2 live_gradient[]; };
 layout(push_constant) uniform Push { IcpRgbReduceParams p; };
 
 // 16 vec4 per subgroup: 8 for the ICP term (its 29 values, then the valid live count), 8 for the
@@ -99,8 +100,9 @@ void main() {
         const float I = dot(wts, vec4(ref_intensity[j00], ref_intensity[j10], ref_intensity[j01], ref_intensity[j11]));
         const float r = (I - live_intensity[i]) * (1.0 / 255.0);
         if (abs(r) <= p.max_intensity_diff) {
-          const vec2 g = (wts.x * ref_gradient[j00] + wts.y * ref_gradient[j10] + wts.z * ref_gradient[j01] +
-                          wts.w * ref_gradient[j11]) * (1.0 / 255.0);
+          vec2 g = (wts.x * ref_gradient[j00] + wts.y * ref_gradient[j10] + wts.z * ref_gradient[j01] +
+                    wts.w * ref_gradient[j11]) * (1.0 / 255.0);
+          if (p.esm_gradient != 0u) g = 0.5 * (g + live_gradient[i] * (1.0 / 255.0));
           // dI/dq = g * d pi / d q
           const float inv_z = 1.0 / q.z;
           const vec3 dI_dq = vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z,

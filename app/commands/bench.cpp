@@ -132,7 +132,7 @@ void time_stage(gpu::Stream& stream, StageTimes& times, const std::string& stage
 void bench_preprocessing(gpu::Context& ctx, const Intrinsics& k, const BenchOptions& o, StageTimes& times) {
   gpu::Stream stream(ctx, 0, "bench");
   kernels::Preprocessor pre(ctx);
-  kernels::PreprocessParams params;
+  const kernels::PreprocessParams params = slam::SlamParams{}.effective_preprocess();  // as the pipeline runs it
   auto frame = kernels::FramePyramid::allocate(ctx, k, params.pyramid_levels, "bench frame");
   const Frame input = make_builtin_test_frame(k);
   const std::string size = std::to_string(k.width) + "x" + std::to_string(k.height);

@@ -88,6 +88,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("max_normal_angle_deg", c.max_normal_angle_deg)
       .field("use_photometric", c.use_photometric)
       .field("photometric_weight", c.photometric_weight)
+      .field("esm_gradient", c.esm_gradient)
       .field("max_intensity_diff", c.max_intensity_diff)
       .field("photometric_huber_k", c.photometric_huber_k)
       .field("min_correspondences", c.min_correspondences)

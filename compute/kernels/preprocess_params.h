@@ -19,8 +19,8 @@ struct PreprocessParams {
   int pyramid_levels = 4;
   // Depth downsampling ignores samples farther than this from the block's first valid one.
   float pyramid_max_depth_diff_m = 0.1f;
-  // Intensity gradients of the live frame. Tracking differentiates the model's predicted image,
-  // not the live one, so the pipeline leaves them off.
+  // Intensity gradients of the live frame (the pipelines switch them on when the tracker's ESM
+  // photometric term needs them: SlamParams::effective_preprocess).
   bool live_gradients = false;
 };
 

@@ -319,7 +319,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     });
 
   gpu::CommandList pre = main_stream_.begin();
-  preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, params_.slam.preprocess);
+  preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, params_.slam.effective_preprocess());
   const gpu::TimelinePoint preprocessed = main_stream_.submit(std::move(pre));
   main_stream_.wait(preprocessed);
   stage("preprocess");

@@ -42,7 +42,7 @@ FrameResult DenseSlam::process(const float* depth_m, const uint8_t* rgb) {
   live_.upload(stream_, depth_m, rgb);
   r.stage_ms.emplace_back("upload", clock.lap_ms());
   stream_.run([&](gpu::CommandList& c) {
-    preprocessor_.record_frame(c, live_, kernels::FramePyramid::kUploadMetresPerUnit, params_.preprocess);
+    preprocessor_.record_frame(c, live_, kernels::FramePyramid::kUploadMetresPerUnit, params_.effective_preprocess());
   });
   r.stage_ms.emplace_back("preprocess", clock.lap_ms());
 

@@ -25,6 +25,13 @@ struct SlamParams {
   // old (a young model has no stable surfels yet; old unconfirmed ones are mostly noise).
   // Measured: 10 instead of 30 takes TUM fr1/rpy (200 frames) from 3.3 to 2.7 cm ATE.
   int prediction_recent_window_frames = 10;
+
+  // `preprocess` with what the tracker needs switched on (the live gradients of its ESM term).
+  kernels::PreprocessParams effective_preprocess() const {
+    kernels::PreprocessParams p = preprocess;
+    p.live_gradients = p.live_gradients || (tracker.use_photometric && tracker.esm_gradient);
+    return p;
+  }
 };
 
 struct FrameResult {

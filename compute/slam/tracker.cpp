@@ -58,13 +58,14 @@ void check_levels(const std::vector<kernels::FramePyramid::Level>& live,
     require_buffer(b.normal, n * 16, lv + " reference normal map");
     require_buffer(b.intensity, n * 4, lv + " reference intensity");
     require_buffer(b.gradient, n * 8, lv + " reference gradient");
+    require_buffer(a.gradient, n * 8, lv + " live gradient");
   }
 }
 
 Tracker::Tracker(gpu::Context& ctx, TrackerParams params)
     : ctx_(ctx),
       params_(validated(std::move(params))),
-      reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 8, sizeof(L::IcpRgbReduceParams)) {
+      reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 9, sizeof(L::IcpRgbReduceParams)) {
   const auto& f = ctx.features();
   if (!f.subgroup_arithmetic)
     throw Error("Tracker: device '" + ctx.info().name + "' lacks subgroup arithmetic in compute shaders");
@@ -102,6 +103,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
   p.rgb_huber_delta = static_cast<float>(rgb_huber_delta);
   p.use_photometric = params_.use_photometric ? 1u : 0u;
+  p.esm_gradient = params_.esm_gradient ? 1u : 0u;
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
   p.rect_x0 = static_cast<uint32_t>(r.x0);
   p.rect_y0 = static_cast<uint32_t>(r.y0);
@@ -115,7 +117,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   auto cmd = stream.begin();
   cmd.dispatch(reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
-                reference.gradient, partials_},
+                reference.gradient, partials_, live.gradient},
                p, groups);
   stream.submit(std::move(cmd));
   std::vector<float> partials(static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE);

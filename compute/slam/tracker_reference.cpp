@@ -31,7 +31,7 @@ void check_same_size(const HostLevel& a, const HostLevel& b, const std::string& 
   const int w = a.intrinsics.width, h = a.intrinsics.height;
   auto ok = [&](const auto& image) { return image.width == w && image.height == h; };
   if (!ok(a.vertex) || !ok(a.normal) || !ok(a.intensity) || !ok(b.vertex) || !ok(b.normal) || !ok(b.intensity) ||
-      !ok(b.gradient) || b.intrinsics.width != w || b.intrinsics.height != h)
+      !ok(a.gradient) || !ok(b.gradient) || b.intrinsics.width != w || b.intrinsics.height != h)
     throw Error(what + ": maps of live and reference levels differ in size from the intrinsics " +
                 a.intrinsics.to_string());
 }
@@ -105,8 +105,12 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         const double I_ref = bilinear(ref.intensity, [](float i) { return double(i); });
         const double r = (I_ref - live.intensity.at(u, v)) / 255.0;
         if (!(std::abs(r) <= params.max_intensity_diff)) continue;
-        const double gx = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.x); }) / 255.0;
-        const double gy = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.y); }) / 255.0;
+        double gx = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.x); }) / 255.0;
+        double gy = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.y); }) / 255.0;
+        if (params.esm_gradient) {  // mean with the live gradient at the pixel
+          gx = 0.5 * (gx + live.gradient.at(u, v).x / 255.0);
+          gy = 0.5 * (gy + live.gradient.at(u, v).y / 255.0);
+        }
         // Chain rule: dI/dq = (gx, gy) * d pi(q) / dq, pi(q) = (fx qx/qz + cx, fy qy/qz + cy).
         const double z = q.z();
         const Eigen::Vector3d dI_dq(gx * k.fx / z, gy * k.fy / z, -(gx * k.fx * q.x() + gy * k.fy * q.y()) / (z * z));

@@ -23,7 +23,7 @@ struct HostLevel {
   kernels::Image<glm::vec4> vertex;  // metres, w = 1 valid
   kernels::Image<glm::vec4> normal;  // w = 1 valid
   kernels::Image<float> intensity;   // [0, 255]
-  kernels::Image<glm::vec2> gradient;  // per pixel, [0, 255] units (reference maps only)
+  kernels::Image<glm::vec2> gradient;  // per pixel, [0, 255] units
 };
 
 // Downloads the vertex, normal, intensity and gradient maps of `level` (synchronous).

@@ -270,6 +270,7 @@ struct TestFillParams {
 #define ICP_RGB_BINDING_REF_INTENSITY 5   // float[] [0, 255]
 #define ICP_RGB_BINDING_REF_GRADIENT 6    // vec2[] d intensity / d pixel, [0, 255] per pixel
 #define ICP_RGB_BINDING_PARTIALS 7        // float[workgroups * ICP_RGB_PARTIAL_STRIDE]
+#define ICP_RGB_BINDING_LIVE_GRADIENT 8   // vec2[] live d intensity / d pixel (read when esm_gradient != 0)
 #define ICP_RGB_GROUP_SIZE 256            // invocations per workgroup
 #define ICP_RGB_TERM_VALUES 29            // values per term (see above)
 #define ICP_RGB_OFFSET_ICP 0
@@ -291,6 +292,9 @@ struct IcpRgbReduceParams {
   // Photometric: residuals beyond this (intensity / 255) get Huber weight delta / |r| (the sums
   // then hold w J^T J, w J^T r, w r^2); 0 = none.
   float rgb_huber_delta;
+  // Photometric Jacobian: 0 = the reference's intensity gradient at the warped point; 1 = the mean
+  // of that and the live gradient at the pixel (efficient second-order minimisation).
+  uint esm_gradient;
 };
 
 

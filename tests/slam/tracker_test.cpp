@@ -235,6 +235,26 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     expect_sums_near(gpu.icp, cpu.icp, 2e-3, what + " icp");
     expect_sums_near(gpu.rgb, cpu.rgb, 2e-3, what + " rgb");
 
+    // The photometric Jacobian from the reference's gradient alone (no ESM): the same residuals
+    // and ICP term, a different J (so the live gradient above was really read).
+    {
+      slam::TrackerParams plain = params;
+      plain.esm_gradient = false;
+      tracker_->set_params(plain);
+      const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
+      const slam::LinearSystemSums c = ref::compute_sums(ref::download_level(stream(), live.levels[0]),
+                                                         ref::download_level(stream(), reference.levels[0]), T, plain);
+      tracker_->set_params(params);
+      expect_sums_near(g.icp, c.icp, 2e-3, what + " no-esm icp");
+      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " no-esm rgb");
+      EXPECT_EQ(c.icp, cpu.icp) << what;
+      EXPECT_EQ(c.rgb[27], cpu.rgb[27]) << what;
+      EXPECT_EQ(c.rgb[28], cpu.rgb[28]) << what;
+      if (s.w >= 160) {
+        EXPECT_GT(std::abs(c.rgb[0] - cpu.rgb[0]), 1e-3 * cpu.rgb[0]) << what << ": ESM made no difference";
+      }
+    }
+
     // Restricted to a rectangle of live pixels (a model's region): an inner one, one reaching
     // past the image (clamped), a single pixel and an empty one.
     const auto live_host = ref::download_level(stream(), live.levels[0]);
