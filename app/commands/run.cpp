@@ -210,8 +210,10 @@ void run(const RunOptions& o) {
     if (o.save_segmentation) {
       // Model id per pixel (0 = background), 65535 = no model (no depth or unassigned).
       cv::Mat labels(depth.rows, depth.cols, CV_16UC1, r.labels.data());
-      char name[32];
-      std::snprintf(name, sizeof name, "%06d.png", frame->index);
+      // Named by the frame's timestamp (6 decimals, as in the trajectories), which is how TUM
+      // folders and generated scenes name their images and masks: `eval seg` pairs them by name.
+      char name[64];
+      std::snprintf(name, sizeof name, "%.6f.png", frame->timestamp_s);
       write_atomically(out_dir / "segmentation" / name, [&](const fs::path& tmp) {
         if (!cv::imwrite(tmp.string() + ".png", labels)) throw Error("PNG encoding failed");
         fs::rename(tmp.string() + ".png", tmp);

@@ -150,6 +150,15 @@ TEST(RunCommand, MovingObjectsGetModelTrajectoriesSummaryAndLabelImagesSlow) {
   }
   EXPECT_EQ(label_images, frames);
   EXPECT_TRUE(object_labelled);
+
+  // The label images are named like the generated scene's masks, so `eval seg` scores them.
+  const fs::path gt = fresh_temp_dir() / "gt";
+  const Result g = run_cofusion("generate two_objects --max-frames " + std::to_string(frames) + " --output " + gt.string());
+  ASSERT_EQ(g.exit_code, 0) << g.output;
+  const Result e = run_cofusion("eval seg --json --gt-masks " + (gt / "masks").string() + " --est-masks " +
+                                (out / "segmentation").string());
+  ASSERT_EQ(e.exit_code, 0) << e.output;
+  EXPECT_THAT(e.output, HasSubstr("\"frames_evaluated\": " + std::to_string(frames))) << e.output;
 }
 
 TEST(RunCommand, MissingInputFailsWithOneLineReasonAndNoOutput) {
