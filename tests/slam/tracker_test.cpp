@@ -222,9 +222,10 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     const Isometry3d T = se3_exp(perturbation) * moved_pose();
     slam::TrackerParams params;
     tracker_->set_params(params);
+    const auto live_host = ref::download_level(stream(), live.levels[0]);
+    const auto reference_host = ref::download_level(stream(), reference.levels[0]);
     const slam::LinearSystemSums gpu = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
-    const slam::LinearSystemSums cpu = ref::compute_sums(ref::download_level(stream(), live.levels[0]),
-                                                         ref::download_level(stream(), reference.levels[0]), T, params);
+    const slam::LinearSystemSums cpu = ref::compute_sums(live_host, reference_host, T, params);
     EXPECT_EQ(gpu.valid_live_pixels, cpu.valid_live_pixels) << what;
     if (s.w >= 160) {
       // The scene must exercise both terms for the comparison to mean something.
@@ -242,8 +243,7 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       plain.esm_gradient = false;
       tracker_->set_params(plain);
       const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
-      const slam::LinearSystemSums c = ref::compute_sums(ref::download_level(stream(), live.levels[0]),
-                                                         ref::download_level(stream(), reference.levels[0]), T, plain);
+      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, plain);
       tracker_->set_params(params);
       expect_sums_near(g.icp, c.icp, 2e-3, what + " no-esm icp");
       expect_sums_near(g.rgb, c.rgb, 2e-3, what + " no-esm rgb");
@@ -257,8 +257,6 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
 
     // Restricted to a rectangle of live pixels (a model's region): an inner one, one reaching
     // past the image (clamped), a single pixel and an empty one.
-    const auto live_host = ref::download_level(stream(), live.levels[0]);
-    const auto reference_host = ref::download_level(stream(), reference.levels[0]);
     for (const PixelRect rect : {PixelRect{s.w / 4, s.h / 3, s.w / 4 + (s.w + 1) / 2, s.h / 3 + (s.h + 1) / 2},
                                  PixelRect{s.w / 2, s.h / 2, s.w + 5, s.h + 7}, PixelRect{s.w / 2, s.h / 2, s.w / 2 + 1, s.h / 2 + 1},
                                  PixelRect{3, 3, 3, 9}}) {
