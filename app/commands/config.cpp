@@ -237,6 +237,14 @@ PipelineConfig load_config(const std::filesystem::path& path) {
   s.section("costs", file + ": costs", [&](Section& q) { read_costs(q, config.costs); });
   s.section("lifecycle", file + ": lifecycle", [&](Section& q) { read_lifecycle(q, config.lifecycle); });
   s.section("segmentation", file + ": segmentation", [&](Section& q) { read_segmentation(q, config.segmentation); });
+  s.section("rest", file + ": rest", [&](Section& q) {
+    q.field("prefer_rest", config.rest.prefer_rest)
+        .field("max_cost_increase", config.rest.max_cost_increase)
+        .field("min_correspondence_fraction", config.rest.min_correspondence_fraction);
+    if (!(config.rest.max_cost_increase >= 0) ||
+        !(config.rest.min_correspondence_fraction >= 0 && config.rest.min_correspondence_fraction <= 1))
+      throw Error(q.where() + ": max_cost_increase must be >= 0 and min_correspondence_fraction in [0, 1]");
+  });
   s.reject_unknown();
   return config;
 }

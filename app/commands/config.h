@@ -18,9 +18,10 @@ struct PipelineConfig {
   segmentation::MotionSegmentationParams segmentation;
   slam::MotionCostParams costs;
   slam::LifecycleParams lifecycle;
+  slam::RestParams rest;
   bool motion_segmentation = true;
 
-  slam::CoFusionParams cofusion() const { return {slam, segmentation, costs, lifecycle, motion_segmentation}; }
+  slam::CoFusionParams cofusion() const { return {slam, segmentation, costs, lifecycle, rest, motion_segmentation}; }
 };
 
 PipelineConfig load_config(const std::filesystem::path& path);

@@ -191,8 +191,7 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
 }
 
-// Tracks the model with its own live pixels, then computes the per-pixel alignment cost of the
-// new motion over the whole frame (the segmentation's input).
+// Tracks the model with its own live pixels.
 void CoFusion::track_model(Model& m) {
   const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? m.last_motion : Eigen::Isometry3d::Identity();
   // Background-only runs track with every live pixel: there is nothing to mask.
@@ -200,6 +199,35 @@ void CoFusion::track_model(Model& m) {
                                m.track_rect);
   m.tracked = true;
   m.motion = m.tracking.failed ? guess : m.tracking.T_reference_live;
+}
+
+// Once every model is tracked: an object whose pixels staying where it is in the world
+// (`camera_motion`, the background's) explains as well as its tracked motion stays (RestParams).
+// Then the per-pixel alignment cost of the model's motion over its residual rectangle (the
+// segmentation's input).
+void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
+  const RestParams& rest = params_.rest;
+  if (m.id != 0 && rest.prefer_rest && !m.tracking.failed && params_.motion_segmentation) {
+    const TrackerParams& tp = m.tracker.params();
+    const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
+    // The tracked motion's fit is tracking's last iteration's (at the pose before its final,
+    // converged step), so only rest needs a reduction of its own.
+    const TrackingResult& t = m.tracking;
+    const auto mean_cost = [&](double icp_r2, double icp_n, double rgb_r2, double rgb_n) {
+      const double n = icp_n + (lambda > 0 ? rgb_n : 0.0);
+      return n > 0 ? (icp_r2 + lambda * rgb_r2) / n : 0.0;
+    };
+    const double moved_n = t.icp_inliers;
+    const double moved_cost = mean_cost(t.icp_rms_m * t.icp_rms_m * moved_n, moved_n, t.rgb_rms * t.rgb_rms * t.rgb_residuals,
+                                        t.rgb_residuals);
+    const double huber_delta = tp.photometric_huber_k * t.rgb_rms;  // as tracking's last iteration
+    const LinearSystemSums still =
+        m.tracker.compute_sums(m.stream, m.masked[0], m.prediction.levels[0], camera_motion, m.track_rect, huber_delta);
+    const double still_cost = mean_cost(still.icp[27], still.icp[28], still.rgb[27], still.rgb[28]);
+    if (moved_n > 0 && still.icp[28] >= rest.min_correspondence_fraction * moved_n &&
+        still_cost <= (1.0 + rest.max_cost_increase) * moved_cost)
+      m.motion = camera_motion;
+  }
   m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.motion;
   if (params_.motion_segmentation) {
     m.stream.run([&](gpu::CommandList& cmd) {
@@ -335,6 +363,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     for_each_model(active, [&](Model& m) { predict_model(m, preprocessed); });
     stage("predict");
     for_each_model(active, [&](Model& m) { track_model(m); });
+    const Eigen::Isometry3d camera_motion = active.front()->motion;
+    for_each_model(active, [&](Model& m) { settle_model(m, camera_motion); });
     stage("track");
   }
   const Clock::time_point gpu_end = Clock::now();

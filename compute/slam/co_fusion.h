@@ -6,7 +6,9 @@
 //      job system at the same time (they need only the frame);
 //   2. every active model, on its own stream (its own compute queue where the device has
 //      several): predict into the previous view, track with the live pixels it owned in the
-//      previous segmentation, then compute the per-pixel ICP alignment cost of its new motion;
+//      previous segmentation; once all are tracked, an object whose data do not tell its motion
+//      from staying where it is stays (RestParams), and each model computes the per-pixel
+//      alignment cost of its new motion;
 //   3. motion segmentation on the CPU (unaries from those costs, fully connected CRF over the
 //      superpixels, connected components);
 //   4. lifecycle: spawn a model from a large outlier region (or re-activate an inactive model
@@ -140,11 +142,33 @@ struct LifecycleParams {
   double object_min_inlier_ratio = 0.05;
 };
 
+// Objects at rest. A box seen edge-on as one striped face constrains few directions of its motion:
+// tracked from the constant-velocity guess, it keeps whatever velocity those directions had and
+// wanders once it has been put down (table_placement: its model turned by 180 degrees on the
+// table). After tracking, each object's motion is compared with staying where it is in the world
+// (moving with the camera only) on the same pixels: where staying explains them as well, within
+// the noise, the object stays. A choice between two explanations of the data, not a prior on the
+// pose: wherever the data tell them apart, they decide.
+struct RestParams {
+  bool prefer_rest = true;
+  // Rest is taken when its mean cost per residual (point-to-plane squared plus lambda times
+  // photometric squared, at full resolution) is at most (1 + this) times the tracked motion's ...
+  // The tracked pose fits six more parameters, which lowers its cost a little; a real motion d
+  // along a direction the data constrain raises rest's by about (d / noise)^2, so 0.1 lets
+  // through about a third of the depth noise per frame, which the next frames then catch. Frame
+  // to frame the tracked pose's cost varies by 10-20% on a model still being fused: 0.03 kept the
+  // table_placement box still in only half of its frames at rest.
+  double max_cost_increase = 0.1;
+  // ... and it keeps at least this fraction of the tracked motion's ICP correspondences.
+  double min_correspondence_fraction = 0.98;
+};
+
 struct CoFusionParams {
   SlamParams slam;
   segmentation::MotionSegmentationParams segmentation;
   MotionCostParams costs;
   LifecycleParams lifecycle;
+  RestParams rest;
   // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
   bool motion_segmentation = true;
 };
@@ -214,6 +238,7 @@ class CoFusion {
   Model& create_model(int slot, const Eigen::Isometry3d& T_world_model);
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
   void track_model(Model& m);
+  void settle_model(Model& m, const Eigen::Isometry3d& camera_motion);
   void fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect);
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
   std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,

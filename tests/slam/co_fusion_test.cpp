@@ -209,6 +209,28 @@ TEST_F(CoFusionScenes, FastEnteringObjectIsTrackedByOneModelSlow) {
       for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T});
   ASSERT_GE(est.size(), 15u);
   EXPECT_LE(eval::compute_object_trajectory_errors(seq.object_trajectory(ball), est).tracked_point_m.rmse, 0.01);
+
+  // The can stands still on the table from frame 98: its model stays where it is (RestParams) in
+  // most frames instead of jittering with each frame's tracking (0 of 36 frames without it).
+  const int can = 2, can_still = 100;
+  int can_id = -1;
+  double best = 0;
+  for (const auto& m : r.frames[size_t(can_still)].active)
+    if (const double v = iou(r.gt_masks[size_t(can_still)], r.frames[size_t(can_still)].labels, can, m.id); v > best)
+      best = v, can_id = m.id;
+  ASSERT_GT(best, 0.5) << "no model covers the can at frame " << can_still;
+  ASSERT_NE(can_id, 0);
+  int unchanged = 0, steps = 0;
+  for (const auto& m : r.models)
+    if (m.id == can_id)
+      for (size_t k = 1; k < m.trajectory.size(); ++k) {
+        if (m.trajectory[k - 1].first < can_still) continue;
+        const Eigen::Isometry3d step = m.trajectory[k - 1].second.inverse() * m.trajectory[k].second;
+        ++steps;
+        unchanged += step.translation().norm() < 1e-4 && Eigen::AngleAxisd(step.rotation()).angle() < 1e-4;
+      }
+  EXPECT_GE(steps, 30);
+  EXPECT_GE(unchanged, steps / 2) << "frames in which the resting can's model stayed put";
 }
 
 // An object carried out of the view goes inactive and, when it is carried back in, its model is
