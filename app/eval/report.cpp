@@ -201,7 +201,9 @@ nlohmann::json to_json(const ObjectsEvaluation& e) {
                             {"tracked_point_ate_m", to_json(r.tracked_point_m)},
                             {"gt_origin_in_model", {r.gt_origin_in_model.x(), r.gt_origin_in_model.y(), r.gt_origin_in_model.z()}},
                             {"relative_translation_m", to_json(r.relative_translation_m)},
-                            {"relative_rotation_deg", to_json(r.relative_rotation_deg)}});
+                            {"relative_rotation_deg", to_json(r.relative_rotation_deg)},
+                            {"drift_translation_m", to_json(r.drift_translation_m)},
+                            {"drift_rotation_deg", to_json(r.drift_rotation_deg)}});
   }
   j["unmatched_model_ids"] = e.unmatched_est_ids;
   j["unmatched_gt_ids"] = e.unmatched_gt_ids;
@@ -249,12 +251,13 @@ std::string to_text(const ReconstructionEvaluation& e) {
 std::string to_text(const ObjectsEvaluation& e) {
   std::string out;
   for (const auto& p : e.pairs) {
-    char buf[320];
+    char buf[480];
     std::snprintf(buf, sizeof buf,
                   "object model %d gt %d pairs %zu origin_ate_rmse_m %.6f tracked_point_ate_rmse_m %.6f "
-                  "relative_trans_rmse_m %.6f relative_rot_rmse_deg %.6f\n",
+                  "relative_trans_rmse_m %.6f relative_rot_rmse_deg %.6f drift_trans_max_m %.6f drift_rot_max_deg %.6f\n",
                   p.est_id, p.gt_id, p.errors.origin_ate.translation_m.count, p.errors.origin_ate.translation_m.rmse,
-                  p.errors.tracked_point_m.rmse, p.errors.relative_translation_m.rmse, p.errors.relative_rotation_deg.rmse);
+                  p.errors.tracked_point_m.rmse, p.errors.relative_translation_m.rmse, p.errors.relative_rotation_deg.rmse,
+                  p.errors.drift_translation_m.max, p.errors.drift_rotation_deg.max);
     out += buf;
   }
   out += "unmatched_models";

@@ -106,6 +106,14 @@ struct ObjectTrajectoryErrors {
   //    translation part ((I - R) * offset otherwise).
   ErrorStats relative_translation_m;
   ErrorStats relative_rotation_deg;
+  // 4. Drift since the first matched time t0, in the world, with (2)'s alignment A and point q:
+  //    translation |e(t) - e(t0)| of the tracked point's error e(t) = A T_world_model(t) q - g(t);
+  //    rotation, the angle between the world-frame rotations since t0, A R_model(t) R_model(t0)^T
+  //    A^T against R_object(t) R_object(t0)^T (independent of the body offset). (2) aligns the
+  //    whole trajectory, so a model that slipped once and then rested long is mostly absorbed
+  //    there; here the slip stays in every later frame.
+  ErrorStats drift_translation_m;
+  ErrorStats drift_rotation_deg;
 };
 
 struct ObjectTrajectoryParams {

@@ -224,6 +224,9 @@ TEST(ObjectTrajectory, IdenticalFramesGiveZeroForAllMeasures) {
   EXPECT_LT(r.relative_translation_m.max, 1e-9);
   EXPECT_LT(r.relative_rotation_deg.max, 1e-5);
   EXPECT_EQ(r.relative_translation_m.count, 99u);
+  EXPECT_LT(r.drift_translation_m.max, 1e-9);
+  EXPECT_LT(r.drift_rotation_deg.max, 1e-5);
+  EXPECT_EQ(r.drift_translation_m.count, 99u);
 }
 
 TEST(ObjectTrajectory, ModelFrameOffsetIsAbsorbedByTrackedPoint) {
@@ -261,7 +264,43 @@ TEST(ObjectTrajectory, TrackedPointRecoversArbitraryFramesUnderNoise) {
     const auto r = compute_object_trajectory_errors(gt, est);
     EXPECT_LT(r.tracked_point_m.rmse, 0.0045) << "trial " << trial;
     EXPECT_LE(r.tracked_point_m.rmse, r.origin_ate.translation_m.rmse + 1e-12);
+    // Drift compares each noisy pose with the first one (3.5 mm of 3D noise each): the first
+    // sample's error stays in every frame.
+    EXPECT_LT(r.drift_translation_m.rmse, 0.012) << "trial " << trial;
+    EXPECT_LT(r.drift_rotation_deg.max, 0.5) << "trial " << trial;
   }
+}
+
+TEST(ObjectTrajectory, DriftKeepsASlipThatTheAlignmentAbsorbs) {
+  // An object moves and turns for 30 frames, then rests for 120. Its model (in an arbitrary body
+  // frame X and world alignment A) slips by 5 cm and turns 10 degrees about the vertical at frame
+  // 20 and then follows it exactly: the whole-trajectory alignment of the tracked-point ATE
+  // mostly hides the slip (the model rests at the slipped pose for most of the frames), the drift
+  // since the first frame keeps it.
+  Trajectory gt;
+  for (int i = 0; i < 150; ++i) {
+    const double s = std::min(i, 30) / 30.0;
+    gt.push_back({i / 30.0, make_pose(0.6 * s, 0.1, 0.2 * s, Eigen::Vector3d(0.5 * s, 0.2 - 0.3 * s, 1.0))});
+  }
+  const Pose A = make_pose(0.3, -0.2, 1.0, Eigen::Vector3d(0.4, -0.1, 0.2));
+  const Pose X = make_pose(-0.5, 0.2, 0.1, Eigen::Vector3d(0.05, 0.1, -0.02));
+  Pose slip = Pose::Identity();
+  slip.linear() = Eigen::AngleAxisd(10.0 * std::numbers::pi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  slip.translation() = Eigen::Vector3d(0.05, 0, 0);
+  Trajectory est = gt;
+  for (std::size_t i = 0; i < est.size(); ++i) {
+    // The slip happens in the world about the object's position at frame 20.
+    const Pose about = i >= 20 ? Pose(Eigen::Translation3d(gt[20].T_world_x.translation())) * slip *
+                                     Pose(Eigen::Translation3d(-gt[20].T_world_x.translation()))
+                               : Pose::Identity();
+    est[i].T_world_x = A.inverse() * about * gt[i].T_world_x * X;
+  }
+  const auto r = compute_object_trajectory_errors(gt, est);
+  EXPECT_LT(r.tracked_point_m.rmse, 0.02);
+  EXPECT_NEAR(r.drift_translation_m.max, 0.05, 0.01);
+  EXPECT_NEAR(r.drift_rotation_deg.max, 10.0, 0.5);
+  // Frames before the slip: only the alignment's bias (fitted to the slipped trajectory too).
+  EXPECT_LT(r.drift_translation_m.min, 0.005);
 }
 
 TEST(ObjectTrajectory, TranslatingObjectWithoutRotation) {
