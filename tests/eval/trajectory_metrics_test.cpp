@@ -313,6 +313,10 @@ TEST(ObjectTrajectory, TranslatingObjectWithoutRotation) {
   EXPECT_LT(r.origin_ate.translation_m.rmse, 1e-9);
   EXPECT_LT(r.tracked_point_m.rmse, 1e-9);
   EXPECT_LT(r.relative_translation_m.max, 1e-9);
+  // Drift carries the displacements through the fitted alignment's rotation: without rotation in
+  // the trajectory that rotation comes from the path's shape alone, and must still be right.
+  EXPECT_LT(r.drift_translation_m.max, 1e-9);
+  EXPECT_LT(r.drift_rotation_deg.max, 1e-5);
 }
 
 TEST(ObjectTrajectory, RelativeMotionSeesTranslationNoise) {
