@@ -15,6 +15,7 @@ struct ConvertOptions {
   std::string to;  // "klg" or "tum"; empty = from --output (.klg file, else folder)
   std::string output;
   std::string intrinsics;
+  std::optional<double> depth_correction;
   std::optional<int> max_frames;
   unsigned seed = 0;
   bool raw_depth = false;
@@ -31,6 +32,7 @@ void convert(const ConvertOptions& o) {
 
   SourceOptions source_options;
   source_options.intrinsics = o.intrinsics;
+  source_options.depth_correction = o.depth_correction;
   source_options.max_frames = o.max_frames;
   source_options.seed = o.seed;
   auto source = open_source(o.input, source_options);
@@ -62,6 +64,9 @@ void add_convert(CLI::App& app) {
       ->check(CLI::IsMember({"klg", "tum"}));
   cmd->add_option("--output,-o", o->output, "Output .klg file or TUM folder")->required();
   cmd->add_option("--intrinsics", o->intrinsics, "fx,fy,cx,cy[,w,h] | calibration file | preset (fr1, fr2, fr3, primesense)");
+  cmd->add_option("--depth-correction", o->depth_correction,
+                  "Recorded depth / DS = metric depth (default: TUM folders of the fr1/fr2 cameras 1.035/1.031, as the TUM benchmark lists; else 1)")
+      ->check(CLI::Range(0.5, 2.0));
   cmd->add_option("--max-frames", o->max_frames, "Convert at most this many frames")->check(CLI::NonNegativeNumber);
   cmd->add_option("--seed", o->seed, "Synthetic scenes: noise seed (0 = the scene's own)");
   cmd->add_flag("--raw-depth", o->raw_depth, "klg: store depth uncompressed (default: zlib)");

@@ -31,6 +31,7 @@ struct RunOptions {
   std::string config_file;
   bool save_segmentation = false;
   std::string intrinsics;
+  std::optional<double> depth_correction;
   unsigned seed = 0;
   std::string screenshot;
   GpuCliOptions gpu;
@@ -86,6 +87,7 @@ void run(const RunOptions& o) {
   const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
   SourceOptions source_options;
   source_options.intrinsics = o.intrinsics;
+  source_options.depth_correction = o.depth_correction;
   source_options.max_frames = o.max_frames;
   source_options.seed = o.seed;
   auto source = open_source(o.input, source_options);
@@ -307,6 +309,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--config", o->config_file, "JSON file of pipeline parameters")->check(CLI::ExistingFile);
   cmd->add_flag("--save-segmentation", o->save_segmentation, "Write per-frame label images to segmentation/");
   cmd->add_option("--intrinsics", o->intrinsics, "fx,fy,cx,cy | calibration file | preset (fr1, fr2, fr3, primesense)");
+  cmd->add_option("--depth-correction", o->depth_correction,
+                  "Recorded depth / DS = metric depth (default: TUM folders of the fr1/fr2 cameras 1.035/1.031, as the TUM benchmark lists; else 1)")
+      ->check(CLI::Range(0.5, 2.0));
   cmd->add_option("--seed", o->seed, "Synthetic scenes: noise seed (0 = the scene's own)");
   o->gpu.add_to(*cmd);
   cmd->callback([o] { run(*o); });

@@ -17,9 +17,11 @@ std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOp
   if (parsed.scheme == "synthetic") {
     if (!options.intrinsics.empty())
       throw Error("input '" + spec + "': --intrinsics does not apply to synthetic scenes (the scene sets its camera)");
+    if (options.depth_correction)
+      throw Error("input '" + spec + "': --depth-correction does not apply to synthetic scenes (their depth is metric)");
     source = synthetic::make_synthetic_source(parsed.path, options.seed, options.max_frames);
   } else {
-    source = open_recorded_source(parsed, options.intrinsics);
+    source = open_recorded_source(parsed, options.intrinsics, options.depth_correction);
   }
   // Every source honours max_frames, whether or not it could stop early by itself.
   if (options.max_frames) source = std::make_unique<LimitedSource>(std::move(source), *options.max_frames);

@@ -18,6 +18,9 @@ namespace cofusion {
 struct SourceOptions {
   // --intrinsics "fx,fy,cx,cy", a calibration file path, or a preset name (fr1, fr2, fr3, primesense).
   std::string intrinsics;
+  // --depth-correction: recorded depth / this = metric depth. Empty: a TUM folder recorded by a TUM
+  // camera (fr1/fr2 preset, named or guessed) applies the benchmark's listed correction; others none.
+  std::optional<double> depth_correction;
   std::optional<int> max_frames;  // stop after this many frames
   unsigned seed = 0;              // synthetic scenes: noise seed override (0 = the scene's own)
 };

@@ -67,6 +67,14 @@ std::optional<Intrinsics> intrinsics_preset(std::string_view name) {
   return std::nullopt;
 }
 
+std::optional<double> tum_depth_correction(std::string_view preset) {
+  const std::string n = lower(preset);
+  if (n == "fr1" || n == "freiburg1") return 1.035;
+  if (n == "fr2" || n == "freiburg2") return 1.031;
+  if (n == "fr3" || n == "freiburg3") return 1.0;
+  return std::nullopt;
+}
+
 IntrinsicsChoice read_calibration_file(const fs::path& path) {
   std::ifstream in(path);
   if (!in) throw Error("cannot open calibration file " + path.string());
@@ -106,6 +114,7 @@ IntrinsicsChoice parse_intrinsics_option(const std::string& option) {
     choice.intrinsics = *preset;
     choice.size_known = true;
     choice.origin = lower(option) + " preset";
+    if (tum_depth_correction(option)) choice.tum_preset = "fr" + std::string(1, lower(option).back());
     return choice;
   }
   std::error_code ec;

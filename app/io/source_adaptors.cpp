@@ -1,6 +1,7 @@
 #include "io/source_adaptors.h"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "common/error.h"
 
@@ -26,6 +27,32 @@ std::optional<int> LimitedSource::size() const {
 
 std::string LimitedSource::describe() const {
   return inner_->describe() + " [first " + std::to_string(max_frames_) + " frames]";
+}
+
+DepthCorrectedSource::DepthCorrectedSource(std::unique_ptr<FrameSource> inner, double depth_correction)
+    : inner_(std::move(inner)), depth_correction_(depth_correction) {
+  if (!inner_) throw Error("DepthCorrectedSource: no source given");
+  if (!(depth_correction_ >= 0.5 && depth_correction_ <= 2.0))
+    throw Error("--depth-correction must be between 0.5 and 2 (recorded depth / it = metric depth), got " +
+                std::to_string(depth_correction_));
+}
+
+std::optional<Frame> DepthCorrectedSource::next() {
+  auto frame = inner_->next();
+  // Into a new image: the inner source may share its pixels (cv::Mat copies are shallow, and
+  // assigning a MatExpr to a Mat of the same size writes into its buffer).
+  if (frame && !frame->depth_m.empty()) {
+    cv::Mat corrected;
+    frame->depth_m.convertTo(corrected, CV_32F, 1.0 / depth_correction_);  // 0 (no reading) stays 0
+    frame->depth_m = corrected;
+  }
+  return frame;
+}
+
+std::string DepthCorrectedSource::describe() const {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, " [depth / %.3f (--depth-correction)]", depth_correction_);
+  return inner_->describe() + buf;
 }
 
 MemorySource::MemorySource(std::vector<Frame> frames, Intrinsics intrinsics, std::string description)

@@ -1,6 +1,6 @@
 #pragma once
-// Small FrameSource building blocks: a frame-count limit around any source, and frames held in
-// memory (tests, and producers that build frames themselves).
+// Small FrameSource building blocks: a frame-count limit around any source, a depth correction,
+// and frames held in memory (tests, and producers that build frames themselves).
 #include <memory>
 #include <string>
 #include <vector>
@@ -23,6 +23,23 @@ class LimitedSource : public FrameSource {
   std::unique_ptr<FrameSource> inner_;
   int max_frames_;
   int delivered_ = 0;
+};
+
+// Divides every depth reading of `inner` by `depth_correction` (0.5-2): a sensor whose depth reads
+// long or short by a known factor (--depth-correction for recordings other than TUM folders,
+// which apply it themselves).
+class DepthCorrectedSource : public FrameSource {
+ public:
+  DepthCorrectedSource(std::unique_ptr<FrameSource> inner, double depth_correction);
+
+  std::optional<Frame> next() override;
+  Intrinsics intrinsics() const override { return inner_->intrinsics(); }
+  std::optional<int> size() const override { return inner_->size(); }
+  std::string describe() const override;
+
+ private:
+  std::unique_ptr<FrameSource> inner_;
+  double depth_correction_;
 };
 
 // Hands out the given frames in order (each frame's index is set to its position).

@@ -7,6 +7,7 @@
 #include "io/image_folder_source.h"
 #include "io/klg.h"
 #include "io/openni_source.h"
+#include "io/source_adaptors.h"
 #include "io/tum_source.h"
 
 namespace cofusion {
@@ -51,28 +52,32 @@ SourceSpec parse_source_spec(const std::string& spec) {
   return out;
 }
 
-std::unique_ptr<FrameSource> open_recorded_source(const SourceSpec& spec, const std::string& intrinsics) {
+std::unique_ptr<FrameSource> open_recorded_source(const SourceSpec& spec, const std::string& intrinsics,
+                                                  std::optional<double> depth_correction) {
   if (spec.scheme == "tum") {
     TumSourceOptions o;
     o.intrinsics = intrinsics;
+    o.depth_correction = depth_correction;
     return std::make_unique<TumSource>(spec.path, o);
   }
+  std::unique_ptr<FrameSource> source;
   if (spec.scheme == "klg") {
     KlgSourceOptions o;
     o.intrinsics = intrinsics;
-    return std::make_unique<KlgSource>(spec.path, o);
-  }
-  if (spec.scheme == "images") {
+    source = std::make_unique<KlgSource>(spec.path, o);
+  } else if (spec.scheme == "images") {
     ImageFolderSourceOptions o;
     o.intrinsics = intrinsics;
-    return std::make_unique<ImageFolderSource>(spec.path, o);
-  }
-  if (spec.scheme == "oni" || spec.scheme == "openni2") {
+    source = std::make_unique<ImageFolderSource>(spec.path, o);
+  } else if (spec.scheme == "oni" || spec.scheme == "openni2") {
     OpenNiSourceOptions o;
     o.intrinsics = intrinsics;
-    return spec.scheme == "oni" ? OpenNiSource::open_recording(spec.path, o) : OpenNiSource::open_device(spec.path, o);
+    source = spec.scheme == "oni" ? OpenNiSource::open_recording(spec.path, o) : OpenNiSource::open_device(spec.path, o);
+  } else {
+    throw Error("input '" + spec.scheme + ":" + spec.path + "': '" + spec.scheme + "' is not a recorded source");
   }
-  throw Error("input '" + spec.scheme + ":" + spec.path + "': '" + spec.scheme + "' is not a recorded source");
+  if (depth_correction) source = std::make_unique<DepthCorrectedSource>(std::move(source), *depth_correction);
+  return source;
 }
 
 }  // namespace cofusion

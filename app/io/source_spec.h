@@ -3,6 +3,7 @@
 // opening the recorded kinds of it. Synthetic scenes are opened by commands/sources.cpp, which
 // owns the dependency on the scene generator.
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "io/frame.h"
@@ -19,8 +20,11 @@ struct SourceSpec {
 // depth/). Throws cofusion::Error quoting `spec` for an unknown scheme or a missing path.
 SourceSpec parse_source_spec(const std::string& spec);
 
-// Opens tum, klg, oni, openni2 and images specs with the --intrinsics option (may be empty).
+// Opens tum, klg, oni, openni2 and images specs with the --intrinsics option (may be empty) and
+// the --depth-correction option (recorded depth / it = metric depth; empty: TUM folders of a TUM
+// camera apply that camera's correction, other sources none).
 // Throws cofusion::Error for the synthetic scheme (not an I/O source) and for bad input.
-std::unique_ptr<FrameSource> open_recorded_source(const SourceSpec& spec, const std::string& intrinsics);
+std::unique_ptr<FrameSource> open_recorded_source(const SourceSpec& spec, const std::string& intrinsics,
+                                                  std::optional<double> depth_correction = std::nullopt);
 
 }  // namespace cofusion

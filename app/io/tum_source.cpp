@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -150,6 +151,7 @@ TumSource::TumSource(fs::path folder, TumSourceOptions options) : folder_(std::m
     intrinsics_.intrinsics = *intrinsics_preset(*preset);
     intrinsics_.size_known = true;
     intrinsics_.origin = *preset + " preset (guessed from the path)";
+    intrinsics_.tum_preset = *preset;
   } else {
     intrinsics_.intrinsics = *intrinsics_preset("primesense");
     intrinsics_.size_known = true;
@@ -163,6 +165,17 @@ TumSource::TumSource(fs::path folder, TumSourceOptions options) : folder_(std::m
     intrinsics_.size_known = true;
   }
   require_plausible(intrinsics_.intrinsics, "TUM folder " + folder_.string() + " (" + intrinsics_.origin + ")");
+
+  if (options_.depth_correction) {
+    depth_correction_ = *options_.depth_correction;
+    if (!(depth_correction_ >= 0.5 && depth_correction_ <= 2.0))
+      throw Error("TUM folder " + folder_.string() + ": --depth-correction must be between 0.5 and 2 (recorded depth / it = metric depth), got " +
+                  std::to_string(depth_correction_));
+    depth_correction_origin_ = "--depth-correction";
+  } else if (!intrinsics_.tum_preset.empty()) {
+    depth_correction_ = tum_depth_correction(intrinsics_.tum_preset).value_or(1.0);
+    depth_correction_origin_ = intrinsics_.tum_preset + " depth correction";
+  }
 }
 
 std::optional<Frame> TumSource::next() {
@@ -178,7 +191,7 @@ std::optional<Frame> TumSource::next() {
   frame.rgb = read_rgb_image(rgb_path);
   require_image_size(frame.rgb, k.width, k.height, "colour image " + rgb_path.string() + " (size of the intrinsics: " + intrinsics_.origin + ")");
   const fs::path depth_path = folder_ / a.depth.file;
-  frame.depth_m = read_depth_image(depth_path, options_.depth_units_per_metre);
+  frame.depth_m = read_depth_image(depth_path, options_.depth_units_per_metre * depth_correction_);
   require_image_size(frame.depth_m, k.width, k.height, "depth image " + depth_path.string() + " (size of the colour image)");
   if (has_masks_) {
     const fs::path mask_path = folder_ / "masks" / fs::path(a.rgb.file).filename();
@@ -193,6 +206,11 @@ std::optional<Frame> TumSource::next() {
 std::string TumSource::describe() const {
   std::string s = "tum:" + folder_.string() + " (" + std::to_string(frames_.size()) + " frames, " + pairing_ + ", " +
                   intrinsics_.origin + ": " + intrinsics_.intrinsics.to_string();
+  if (depth_correction_ != 1.0) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, ", depth / %.3f (", depth_correction_);
+    s += buf + depth_correction_origin_ + ")";
+  }
   if (!groundtruth_.empty()) s += ", ground truth";
   if (has_masks_) s += ", masks";
   return s + ")";

@@ -3,6 +3,7 @@
 // depth PNGs (5000 units per metre), optional groundtruth.txt, optional masks/ (16-bit instance
 // ids named like the colour files, as the synthetic generator writes them) and calibration.txt.
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,9 @@ struct TumSourceOptions {
   // the preset named by the path (freiburg1/2/3 or fr1/2/3), else primesense (and describe() says so).
   std::string intrinsics;
   double depth_units_per_metre = 5000.0;  // TUM depth PNG scale
+  // --depth-correction: recorded depth / this = metric depth (0.5-2). Empty: the TUM camera's own
+  // correction when the intrinsics are a TUM preset (fr1 1.035, fr2 1.031), else 1.
+  std::optional<double> depth_correction;
   double max_association_dt_s = 0.02;     // rgb/depth pairing without associations.txt (associate.py)
   double max_groundtruth_dt_s = 0.02;     // ground truth is attached when samples are this close
 };
@@ -49,6 +53,8 @@ class TumSource : public FrameSource {
 
   std::optional<Frame> next() override;
   Intrinsics intrinsics() const override { return intrinsics_.intrinsics; }
+  // The divisor applied to every depth reading (1 = none); see TumSourceOptions::depth_correction.
+  double depth_correction() const { return depth_correction_; }
   std::optional<int> size() const override { return static_cast<int>(frames_.size()); }
   std::string describe() const override;
 
@@ -58,6 +64,8 @@ class TumSource : public FrameSource {
   std::filesystem::path folder_;
   TumSourceOptions options_;
   IntrinsicsChoice intrinsics_;
+  double depth_correction_ = 1.0;
+  std::string depth_correction_origin_;
   std::vector<TumAssociation> frames_;
   Trajectory groundtruth_;  // sorted by time; empty without groundtruth.txt
   bool has_masks_ = false;

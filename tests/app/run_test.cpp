@@ -86,11 +86,10 @@ TEST(RunCommand, StaticSyntheticRoomTracksWithinFiveMillimetres) {
   }
 }
 
-// The single-model issue asks for <= 6 mm here. With the nearest-surfel prediction and the robust
-// photometric term the pipeline measures 6.3 mm on lavapipe (6.6 mm background-only); earlier
-// builds varied by up to 0.8 mm between runs (GPU atomic ordering). The test holds the line at
-// 7 mm against regressions while that gap stays open (see the issue notes).
-TEST(RunCommand, TumFr2DeskWithinSevenMillimetresSlow) {
+// The single-model issue's bound, 6 mm. The TUM folder applies the fr2 camera's listed depth
+// correction (1.031); the pipeline measures 3.7 mm with it and 6.1 mm without (the recorded depth
+// makes every tracker's trajectory 4% long). Runs have varied by up to 0.8 mm (GPU atomic order).
+TEST(RunCommand, TumFr2DeskWithinSixMillimetresSlow) {
   const auto data = data_dir("tum_fr2_desk_50");
   if (!data) {
     GTEST_SKIP() << "TUM fr2/desk recording not found (set COFUSION_DATA)";
@@ -98,10 +97,11 @@ TEST(RunCommand, TumFr2DeskWithinSevenMillimetresSlow) {
   const fs::path out = fresh_temp_dir();
   const Result r = run_cofusion("run --headless --input tum:" + data->string() + " --output " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("depth / 1.031 (fr2 depth correction)"));
   expect_complete_output(out, 50);
   const double ate = camera_ate_m(read_tum_trajectory(*data / "groundtruth.txt"), out);
   RecordProperty("camera_ate_m", std::to_string(ate));
-  EXPECT_LE(ate, 0.007);
+  EXPECT_LE(ate, 0.006);
 }
 
 TEST(RunCommand, TumFr1RpyFastRotationWithinThreeCentimetresSlow) {
@@ -166,6 +166,17 @@ TEST(RunCommand, MissingInputFailsWithOneLineReasonAndNoOutput) {
   const Result r = run_cofusion("run --headless --input tum:/no/such/folder --output " + out.string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("/no/such/folder"));
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
+TEST(RunCommand, DepthCorrectionOutOfRangeOrOnSyntheticFails) {
+  const fs::path out = fresh_temp_dir() / "never";
+  Result r = run_cofusion("run --headless --depth-correction 3 --output " + out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("--depth-correction"));
+  r = run_cofusion("run --headless --depth-correction 1.03 --max-frames 2 --output " + out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("does not apply to synthetic scenes"));
   EXPECT_FALSE(fs::exists(out / "summary.json"));
 }
 

@@ -35,6 +35,14 @@ TEST(IntrinsicsPreset, TumAndPrimesenseValues) {
   EXPECT_FALSE(intrinsics_preset("fr4"));
 }
 
+TEST(IntrinsicsPreset, TumDepthCorrections) {
+  EXPECT_EQ(tum_depth_correction("fr1"), 1.035);
+  EXPECT_EQ(tum_depth_correction("freiburg2"), 1.031);
+  EXPECT_EQ(tum_depth_correction("FR3"), 1.0);
+  EXPECT_FALSE(tum_depth_correction("primesense"));
+  EXPECT_FALSE(tum_depth_correction("fr4"));
+}
+
 TEST(IntrinsicsOption, FourNumbersLeaveSizeToTheImages) {
   const auto c = parse_intrinsics_option("500, 501,300.5,200");
   EXPECT_FALSE(c.size_known);
@@ -56,6 +64,10 @@ TEST(IntrinsicsOption, PresetName) {
   EXPECT_TRUE(c.size_known);
   EXPECT_DOUBLE_EQ(c.intrinsics.fx, 520.9);
   EXPECT_THAT(c.origin, HasSubstr("fr2"));
+  EXPECT_EQ(c.tum_preset, "fr2");
+  EXPECT_EQ(parse_intrinsics_option("Freiburg1").tum_preset, "fr1");
+  EXPECT_EQ(parse_intrinsics_option("primesense").tum_preset, "");
+  EXPECT_EQ(parse_intrinsics_option("500,500,320,240").tum_preset, "");
 }
 
 TEST(IntrinsicsOption, CalibrationFile) {

@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <functional>
 
 #include "common/error.h"
@@ -92,6 +93,28 @@ TEST(LimitedSource, StopsAtTheLimit) {
   EXPECT_EQ(more.size(), 5);
   EXPECT_THAT(error_of([&] { LimitedSource bad(std::make_unique<MemorySource>(frames, k), -1); }),
               HasSubstr("--max-frames"));
+}
+
+TEST(DepthCorrectedSource, DividesEveryDepthReading) {
+  std::vector<Frame> frames;
+  for (int i = 0; i < 3; ++i) frames.push_back(test::make_test_frame(8, 6, i, i * 0.1));
+  frames[1].depth_m.at<float>(2, 3) = 0.0f;  // no reading
+  Intrinsics k;
+  k.width = 8;
+  k.height = 6;
+  DepthCorrectedSource corrected(std::make_unique<MemorySource>(frames, k, "three"), 1.031);
+  EXPECT_EQ(corrected.size(), 3);
+  EXPECT_THAT(corrected.describe(), HasSubstr("depth / 1.031"));
+  int n = 0;
+  while (auto f = corrected.next()) {
+    EXPECT_LT(cv::norm(f->depth_m, frames[n].depth_m / 1.031, cv::NORM_INF), 1e-6) << n;
+    EXPECT_EQ(cv::norm(f->rgb, frames[n].rgb, cv::NORM_INF), 0.0) << n;
+    ++n;
+  }
+  EXPECT_EQ(n, 3);
+  for (const double bad : {0.0, -1.0, 2.1, std::nan("")})
+    EXPECT_THAT(error_of([&] { DepthCorrectedSource s(std::make_unique<MemorySource>(frames, k), bad); }),
+                HasSubstr("--depth-correction"));
 }
 
 }  // namespace

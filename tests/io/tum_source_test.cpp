@@ -5,7 +5,11 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cmath>
+#include <fstream>
 #include <functional>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "common/error.h"
 #include "io/trajectory_lookup.h"
@@ -177,6 +181,57 @@ TEST(TumSource, IntrinsicsOptionAndDefaults) {
   EXPECT_THAT(msg, HasSubstr("32x24, expected 640x480"));
 }
 
+// The fr1/fr2 Kinects read depth a few percent long; the TUM benchmark lists the factor beside
+// their intrinsics. A folder of such a camera divides by it, others do not, and the option wins.
+TEST(TumSource, DepthCorrectionOfTumCameras) {
+  const auto fx = write_tum_fixture(2, true);
+  {
+    TumSource source(fx.dir);  // calibration.txt: not a TUM camera
+    EXPECT_EQ(source.depth_correction(), 1.0);
+    EXPECT_THAT(source.describe(), ::testing::Not(HasSubstr("depth /")));
+  }
+  {
+    TumSourceOptions o;
+    o.depth_correction = 1.25;
+    TumSource source(fx.dir, o);
+    EXPECT_EQ(source.depth_correction(), 1.25);
+    EXPECT_THAT(source.describe(), HasSubstr("depth / 1.250 (--depth-correction)"));
+    auto f = source.next();
+    ASSERT_TRUE(f);
+    const cv::Mat expected = fx.frames[0].depth_m / 1.25;
+    EXPECT_LT(cv::norm(f->depth_m, expected, cv::NORM_INF), 1e-4);
+    EXPECT_EQ(cv::countNonZero(f->depth_m), cv::countNonZero(fx.frames[0].depth_m));  // no reading stays 0
+  }
+  for (const double bad : {0.0, 0.3, 2.5, std::nan("")}) {
+    TumSourceOptions o;
+    o.depth_correction = bad;
+    const std::string msg = error_of([&] { TumSource s(fx.dir, o); });
+    EXPECT_THAT(msg, HasSubstr(fx.dir.string()));
+    EXPECT_THAT(msg, HasSubstr("--depth-correction"));
+  }
+  {
+    TumSourceOptions o;
+    o.intrinsics = "fr1";  // a TUM camera named on the command line
+    TumSource source(fx.dir, o);
+    EXPECT_EQ(source.depth_correction(), 1.035);
+    EXPECT_THAT(source.describe(), HasSubstr("depth / 1.035 (fr1 depth correction)"));
+  }
+  // A folder named after a TUM camera, without calibration.txt: the guessed preset brings its own.
+  const fs::path fr2_dir = fx.dir.parent_path() / (fx.dir.filename().string() + "_fr2_desk");
+  fs::rename(fx.dir, fr2_dir);
+  fs::remove(fr2_dir / "calibration.txt");
+  {
+    TumSource source(fr2_dir);
+    EXPECT_EQ(source.depth_correction(), 1.031);
+    EXPECT_THAT(source.describe(), HasSubstr("depth / 1.031 (fr2 depth correction)"));
+    TumSourceOptions o;
+    o.depth_correction = 1.0;  // switched off
+    TumSource raw(fr2_dir, o);
+    EXPECT_EQ(raw.depth_correction(), 1.0);
+  }
+  fs::remove_all(fr2_dir);
+}
+
 TEST(TumSource, BadInputNamesTheFile) {
   EXPECT_THAT(error_of([] { TumSource s("/nonexistent/tum_folder"); }), HasSubstr("/nonexistent/tum_folder"));
   {
@@ -248,6 +303,7 @@ TEST(TumSource, RealFr2Desk50) {
   EXPECT_DOUBLE_EQ(k.cy, 249.7);
   EXPECT_THAT(source.describe(), HasSubstr("fr2 preset (guessed from the path)"));
   EXPECT_THAT(source.describe(), HasSubstr("ground truth"));
+  EXPECT_EQ(source.depth_correction(), 1.031);
 
   const Trajectory gt = read_tum_trajectory(*dir / "groundtruth.txt");
   int n = 0;
@@ -261,6 +317,21 @@ TEST(TumSource, RealFr2Desk50) {
       EXPECT_GT(f->timestamp_s, last_t);
     }
     last_t = f->timestamp_s;
+    if (n == 0) {
+      // The recorded 16-bit depth, divided by the fr2 correction.
+      std::string first_depth;
+      std::ifstream assoc(*dir / "associations.txt");
+      for (std::string line; std::getline(assoc, line) && first_depth.empty();) {
+        std::istringstream ss(line);
+        std::string t_rgb, rgb, t_depth;
+        if (line.empty() || line[0] == '#' || !(ss >> t_rgb >> rgb >> t_depth >> first_depth)) first_depth.clear();
+      }
+      const cv::Mat raw = cv::imread((*dir / first_depth).string(), cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(raw.type(), CV_16UC1) << first_depth;
+      cv::Mat expected;
+      raw.convertTo(expected, CV_32F, 1.0 / (5000.0 * 1.031));
+      EXPECT_LT(cv::norm(f->depth_m, expected, cv::NORM_INF), 1e-5);
+    }
     const DepthStats s = depth_stats(f->depth_m);
     EXPECT_GT(s.valid_fraction, 0.5) << "frame " << n;
     EXPECT_GT(s.median_m, 0.5) << "frame " << n;  // a desk seen from about 1-2 m
