@@ -40,8 +40,8 @@ struct TrackerParams {
   // live frame's (at the pixel) instead of the reference's alone: efficient second-order
   // minimisation (Benhimane & Malis 2004), which approximates the true Hessian's curvature. The
   // model's predicted image is blurred by fusion, the live one is sharp. TUM fr2/desk 6.35 -> 6.1
-  // mm, fr1/rpy 2.78 -> 2.68 cm (before the TUM depth correction). Needs the live frame's gradients (the pipelines compute them:
-  // SlamParams::effective_preprocess).
+  // mm, fr1/rpy 2.78 -> 2.68 cm (before the TUM depth correction). Needs the live frame's
+  // gradients (the pipelines compute them: SlamParams::effective_preprocess).
   bool esm_gradient = true;
   // |I_ref - I_live| / 255 above this is an outlier (occlusion, specularity, wrong association).
   double max_intensity_diff = 0.3;
