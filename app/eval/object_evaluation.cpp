@@ -30,7 +30,7 @@ std::map<int, std::filesystem::path> find_id_files(const std::filesystem::path& 
 
 ObjectsEvaluation evaluate_object_dirs(const std::filesystem::path& gt_dir, const std::filesystem::path& est_dir,
                                        const std::optional<std::map<int, int>>& est_to_gt,
-                                       const ObjectEvaluationParams& params) {
+                                       const ObjectEvaluationParams& params_in) {
   const auto gt_files = find_id_files(gt_dir, "groundtruth-");
   const auto est_files = find_id_files(est_dir, "model-");
   if (gt_files.empty()) throw Error("no groundtruth-<id>.txt in " + gt_dir.string());
@@ -41,6 +41,21 @@ ObjectsEvaluation evaluate_object_dirs(const std::filesystem::path& gt_dir, cons
   for (const auto& [id, path] : est_files) est[id] = read_tum_trajectory(path);
 
   ObjectsEvaluation out;
+  ObjectEvaluationParams params = params_in;
+  // The world alignment for drift: the cameras' full poses, which every object shares (an object's
+  // own path often leaves the alignment's rotation free, and so does a camera's path).
+  const std::filesystem::path gt_camera = gt_dir / "groundtruth.txt", est_camera = est_dir / "camera.txt";
+  if (params.trajectory.T_gt_est_world) {
+    out.drift_world = "given";
+  } else if (std::filesystem::is_regular_file(gt_camera) && std::filesystem::is_regular_file(est_camera)) {
+    try {
+      params.trajectory.T_gt_est_world =
+          align_by_poses(read_tum_trajectory(gt_camera), read_tum_trajectory(est_camera), params.trajectory.association);
+    } catch (const Error& err) {
+      throw Error(est_camera.string() + " vs " + gt_camera.string() + " (the world alignment for drift): " + err.what());
+    }
+    out.drift_world = "cameras";
+  }
   std::map<int, int> pairs;  // est id -> gt id
   std::map<std::pair<int, int>, ObjectTrajectoryErrors> computed;
   if (est_to_gt) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "eval/trajectory_metrics.h"
@@ -28,6 +29,9 @@ struct ObjectPairResult {
 
 struct ObjectsEvaluation {
   std::vector<ObjectPairResult> pairs;  // ascending est_id
+  // Where drift is measured: "cameras" (align_by_poses of est_dir/camera.txt to
+  // gt_dir/groundtruth.txt, when both exist), "given" or "tracked point" (each pair's own fit).
+  std::string drift_world = "tracked point";
   std::vector<int> unmatched_est_ids;
   std::vector<int> unmatched_gt_ids;
 };
@@ -36,7 +40,8 @@ struct ObjectsEvaluation {
 std::map<int, std::filesystem::path> find_id_files(const std::filesystem::path& dir, const std::string& prefix);
 
 // `est_to_gt`: a fixed mapping model id -> ground-truth id (files must exist), or nullopt for the
-// automatic matching. Throws cofusion::Error naming the files on unreadable trajectories, when
+// automatic matching. When gt_dir/groundtruth.txt (the camera) and est_dir/camera.txt both exist,
+// drift is measured in their pose alignment (unless params.trajectory.T_gt_est_world is given). Throws cofusion::Error naming the files on unreadable trajectories, when
 // a folder holds no files, or (fixed mapping) when a mapped pair cannot be evaluated.
 ObjectsEvaluation evaluate_object_dirs(const std::filesystem::path& gt_dir, const std::filesystem::path& est_dir,
                                        const std::optional<std::map<int, int>>& est_to_gt,

@@ -205,6 +205,7 @@ nlohmann::json to_json(const ObjectsEvaluation& e) {
                             {"drift_translation_m", to_json(r.drift_translation_m)},
                             {"drift_rotation_deg", to_json(r.drift_rotation_deg)}});
   }
+  j["drift_world"] = e.drift_world;
   j["unmatched_model_ids"] = e.unmatched_est_ids;
   j["unmatched_gt_ids"] = e.unmatched_gt_ids;
   return j;
@@ -260,6 +261,7 @@ std::string to_text(const ObjectsEvaluation& e) {
                   p.errors.drift_translation_m.max, p.errors.drift_rotation_deg.max);
     out += buf;
   }
+  out += "drift_world " + e.drift_world + "\n";
   out += "unmatched_models";
   for (const int id : e.unmatched_est_ids) out += " " + std::to_string(id);
   out += "\nunmatched_gt";

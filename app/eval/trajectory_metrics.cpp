@@ -331,6 +331,24 @@ RpeResult compute_rpe(const Trajectory& gt_in, const Trajectory& est_in, const R
   return result;
 }
 
+Pose align_by_poses(const Trajectory& gt_in, const Trajectory& est_in, const AssociationParams& params) {
+  const Trajectory gt = sorted_unique(gt_in), est = sorted_unique(est_in);
+  const auto matches = associate_timestamps(gt, est, params);
+  if (matches.empty()) throw Error("no matching timestamps between the two trajectories");
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (const auto& m : matches) sum += gt[m.first].T_world_x.linear() * est[m.second].T_world_x.linear().transpose();
+  // The rotation nearest the sum (Frobenius): U V^T, with the sign fixed to a proper rotation.
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) D(2, 2) = -1;
+  Pose T = Pose::Identity();
+  T.linear() = svd.matrixU() * D * svd.matrixV().transpose();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  for (const auto& m : matches) t += gt[m.first].T_world_x.translation() - T.linear() * est[m.second].T_world_x.translation();
+  T.translation() = t / double(matches.size());
+  return T;
+}
+
 ObjectTrajectoryErrors compute_object_trajectory_errors(const Trajectory& gt_object_in, const Trajectory& est_model_in,
                                                         const ObjectTrajectoryParams& params) {
   ObjectTrajectoryErrors out;
@@ -380,12 +398,14 @@ ObjectTrajectoryErrors compute_object_trajectory_errors(const Trajectory& gt_obj
   out.relative_rotation_deg = summarize_errors(rot_deg);
 
   // Drift since the first matched time, in the world.
-  const Eigen::Vector3d error0 = A * carried[0] - g[0];
+  const Pose W = params.T_gt_est_world.value_or(A);
+  out.drift_in_given_world = params.T_gt_est_world.has_value();
+  const Eigen::Vector3d error0 = W * carried[0] - g[0];
   const Eigen::Matrix3d R_est0 = T_est[0]->linear(), R_gt0 = gt[matches.front().first].T_world_x.linear();
   std::vector<double> drift_m, drift_deg;
   for (std::size_t k = 1; k < n; ++k) {
-    drift_m.push_back((A * carried[k] - g[k] - error0).norm());
-    const Eigen::Matrix3d turned_est = A.linear() * T_est[k]->linear() * R_est0.transpose() * A.linear().transpose();
+    drift_m.push_back((W * carried[k] - g[k] - error0).norm());
+    const Eigen::Matrix3d turned_est = W.linear() * T_est[k]->linear() * R_est0.transpose() * W.linear().transpose();
     const Eigen::Matrix3d turned_gt = gt[matches[k].first].T_world_x.linear() * R_gt0.transpose();
     drift_deg.push_back(Eigen::AngleAxisd(turned_est.transpose() * turned_gt).angle() * 180.0 / std::numbers::pi);
   }

@@ -11,6 +11,7 @@
 // Object trajectories (T_world_model from the system vs T_world_object ground truth) are compared by
 // compute_object_trajectory_errors(); see ObjectTrajectoryErrors for what each measure assumes.
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include "eval/error_stats.h"
@@ -43,6 +44,12 @@ std::vector<TimestampMatch> associate_timestamps(const Trajectory& first, const 
 // evaluate_ate.py's align(): the T minimising sum |T * est[i] - gt[i]|^2. Needs >= 2 points of
 // equal count; throws cofusion::Error otherwise.
 Pose align_rigid(const std::vector<Eigen::Vector3d>& est_points, const std::vector<Eigen::Vector3d>& gt_points);
+
+// The world alignment from full poses of the same rig in both worlds (a camera): the T with
+// T * est(t) ~ gt(t) over the matched stamps, rotation the chordal mean of gt R est R^T, translation
+// the mean of gt t - R est t. Unlike Horn's fit of positions it is fixed even for a camera that
+// hardly moves. Throws cofusion::Error when no stamps match.
+Pose align_by_poses(const Trajectory& gt, const Trajectory& est, const AssociationParams& params = {});
 
 struct AteParams {
   AssociationParams association;
@@ -106,18 +113,25 @@ struct ObjectTrajectoryErrors {
   //    translation part ((I - R) * offset otherwise).
   ErrorStats relative_translation_m;
   ErrorStats relative_rotation_deg;
-  // 4. Drift since the first matched time t0, in the world, with (2)'s alignment A and point q:
-  //    translation |e(t) - e(t0)| of the tracked point's error e(t) = A T_world_model(t) q - g(t);
-  //    rotation, the angle between the world-frame rotations since t0, A R_model(t) R_model(t0)^T
-  //    A^T against R_object(t) R_object(t0)^T (independent of the body offset). (2) aligns the
-  //    whole trajectory, so a model that slipped once and then rested long is mostly absorbed
-  //    there; here the slip stays in every later frame.
+  // 4. Drift since the first matched time t0, in the world, with a world alignment W and (2)'s
+  //    point q: translation |e(t) - e(t0)| of the tracked point's error e(t) = W T_world_model(t) q
+  //    - g(t); rotation, the angle between the world-frame rotations since t0, W R_model(t)
+  //    R_model(t0)^T W^T against R_object(t) R_object(t0)^T (independent of the body offset). (2)
+  //    aligns the whole trajectory, so a model that slipped once and then rested long is mostly
+  //    absorbed there; here the slip stays in every later frame. W is the given world alignment
+  //    (ObjectTrajectoryParams::T_gt_est_world, e.g. the cameras') or else (2)'s A, whose
+  //    rotation a straight or planar path leaves partly free: a sliding box's model that turned
+  //    with it then shows tens of degrees of rotation drift that is not there.
   ErrorStats drift_translation_m;
   ErrorStats drift_rotation_deg;
+  bool drift_in_given_world = false;  // W was given (else (2)'s A)
 };
 
 struct ObjectTrajectoryParams {
   AssociationParams association;
+  // Maps the estimate's world into the ground truth's, e.g. the camera trajectories' ATE alignment
+  // (ObjectTrajectoryErrors' drift is measured in it). Empty: the tracked-point fit's alignment.
+  std::optional<Pose> T_gt_est_world;
   int max_iterations = 100;            // tracked-point Levenberg-Marquardt iterations
   double convergence_rmse_m = 1e-12;   // stop when an iteration improves the RMSE by less than this
 };

@@ -140,6 +140,38 @@ TEST(ObjectsReport, AutomaticMatchingFindsSwappedIds) {
   EXPECT_THROW(evaluate_object_dirs(dir / "gt", dir / "est", std::map<int, int>{{4, 1}, {7, 1}}), Error);
   EXPECT_THROW(evaluate_object_dirs(dir / "missing", dir / "est", std::nullopt), Error);
   EXPECT_THROW(evaluate_object_dirs(dir / "est", dir / "est", std::nullopt), Error);  // no groundtruth-*.txt
+  EXPECT_EQ(e.drift_world, "tracked point");
+  EXPECT_NE(text.find("drift_world tracked point\n"), std::string::npos) << text;
+}
+
+// With both camera trajectories beside the objects', drift is measured in the cameras' alignment;
+// an unreadable camera.txt is an error naming it.
+TEST(ObjectsReport, DriftInTheCamerasWorld) {
+  const auto dir = test::fresh_temp_dir();
+  fs::create_directories(dir / "gt");
+  fs::create_directories(dir / "est");
+  const Trajectory object = object_trajectory(0.4, 3.0), camera = object_trajectory(2.2, 3.0);
+  Pose A = Pose::Identity();  // estimate world -> ground-truth world
+  A.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  A.translation() = Eigen::Vector3d(0.3, -0.2, 0.5);
+  Trajectory est_camera = camera, est_object = as_model(object);
+  for (auto& p : est_camera) p.T_world_x = A.inverse() * p.T_world_x;
+  for (std::size_t i = 0; i < est_object.size(); ++i) est_object[i].T_world_x = A.inverse() * object[i].T_world_x * object[0].T_world_x.inverse();
+  write_tum_trajectory(dir / "gt" / "groundtruth-1.txt", object);
+  write_tum_trajectory(dir / "gt" / "groundtruth.txt", camera);
+  write_tum_trajectory(dir / "est" / "model-1.txt", est_object);
+  write_tum_trajectory(dir / "est" / "camera.txt", est_camera);
+  const ObjectsEvaluation e = evaluate_object_dirs(dir / "gt", dir / "est", std::nullopt);
+  EXPECT_EQ(e.drift_world, "cameras");
+  ASSERT_EQ(e.pairs.size(), 1u);
+  EXPECT_TRUE(e.pairs[0].errors.drift_in_given_world);
+  EXPECT_LT(e.pairs[0].errors.drift_translation_m.max, 1e-5);
+  EXPECT_LT(e.pairs[0].errors.drift_rotation_deg.max, 1e-3);
+  EXPECT_EQ(to_json(e)["drift_world"], "cameras");
+
+  std::ofstream(dir / "est" / "camera.txt") << "1.0 not a pose\n";
+  const std::string msg = test::error_of([&] { evaluate_object_dirs(dir / "gt", dir / "est", std::nullopt); });
+  EXPECT_NE(msg.find((dir / "est" / "camera.txt").string()), std::string::npos) << msg;
 }
 
 TEST(ReconstructionReport, PlyAgainstGlbWithTransform) {

@@ -319,6 +319,62 @@ TEST(ObjectTrajectory, TranslatingObjectWithoutRotation) {
   EXPECT_LT(r.drift_rotation_deg.max, 1e-5);
 }
 
+// The world alignment from a camera's full poses: exact for an exact copy, and fixed even when the
+// camera hardly moves (Horn's fit of its positions then leaves the rotation free).
+TEST(AlignByPoses, RecoversTheWorldAlignmentOfANearlyStaticCamera) {
+  const Pose A = make_pose(0.5, -0.4, 0.9, Eigen::Vector3d(1.0, -2.0, 0.5));
+  Trajectory gt;
+  for (int i = 0; i < 40; ++i)
+    gt.push_back({i / 30.0, make_pose(0.01 * std::sin(0.3 * i), 0.005 * i / 40.0, 0, Eigen::Vector3d(0.001 * std::sin(0.5 * i), 0.0005 * i / 40.0, 0))});
+  Trajectory est = transformed(gt, A.inverse());
+  EXPECT_LT((align_by_poses(gt, est).matrix() - A.matrix()).norm(), 1e-9);
+  // Rotation noise of about 0.5 degree per pose averages out.
+  for (std::size_t i = 0; i < est.size(); ++i)
+    est[i].T_world_x.linear() = est[i].T_world_x.linear() * make_pose(0.008 * std::sin(1.7 * double(i)), 0.008 * std::cos(2.3 * double(i)), 0, Eigen::Vector3d::Zero()).linear();
+  const Pose T = align_by_poses(gt, est);
+  EXPECT_LT(Eigen::AngleAxisd(T.linear().transpose() * A.linear()).angle() * 180.0 / std::numbers::pi, 0.2);
+  Trajectory later = gt;
+  for (auto& p : later) p.timestamp_s += 100;
+  EXPECT_THROW(align_by_poses(gt, later), Error);
+}
+
+// A box sliding in a straight line while it turns about the vertical: the tracked point's path is
+// a line, which leaves the tracked-point alignment's rotation about it free. With the world
+// alignment given (the cameras'), drift is exactly that of the model: zero for an exact copy, and
+// a later slip in full.
+TEST(ObjectTrajectory, DriftInTheGivenWorldAlignment) {
+  Trajectory gt;
+  for (int i = 0; i < 90; ++i) gt.push_back({i / 30.0, make_pose(0.02 * std::min(i, 60), 0, 0, Eigen::Vector3d(0.01 * std::min(i, 60), 0.3, 0.8))});
+  const Pose A = make_pose(0.4, 0.3, -0.6, Eigen::Vector3d(0.2, -0.3, 0.1));
+  const Pose X = make_pose(-0.3, 0.5, 0.2, Eigen::Vector3d(0.03, -0.05, 0.02));
+  Trajectory est = gt;
+  for (auto& p : est) p.T_world_x = A.inverse() * p.T_world_x * X;
+  ObjectTrajectoryParams params;
+  params.T_gt_est_world = A;
+  auto r = compute_object_trajectory_errors(gt, est, params);
+  EXPECT_TRUE(r.drift_in_given_world);
+  EXPECT_LT(r.tracked_point_m.rmse, 1e-6);
+  EXPECT_LT(r.drift_translation_m.max, 1e-6);
+  EXPECT_LT(r.drift_rotation_deg.max, 1e-5);
+  EXPECT_FALSE(compute_object_trajectory_errors(gt, est).drift_in_given_world);
+
+  // A 4 cm, 8 degree slip in the world at frame 30 (about the object), kept to the end.
+  Pose slip = Pose::Identity();
+  slip.linear() = Eigen::AngleAxisd(8.0 * std::numbers::pi / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  slip.translation() = Eigen::Vector3d(0, 0.04, 0);
+  for (std::size_t i = 30; i < est.size(); ++i) {
+    const Pose about = Pose(Eigen::Translation3d(gt[30].T_world_x.translation())) * slip *
+                       Pose(Eigen::Translation3d(-gt[30].T_world_x.translation()));
+    est[i].T_world_x = A.inverse() * about * gt[i].T_world_x * X;
+  }
+  r = compute_object_trajectory_errors(gt, est, params);
+  EXPECT_NEAR(r.drift_rotation_deg.max, 8.0, 1e-6);
+  // The tracked point (the object's origin) slips with the object: 4 cm plus what the turn about
+  // the frame-30 position moves it by later (it slides on 30 cm).
+  EXPECT_GE(r.drift_translation_m.max, 0.04 - 1e-6);
+  EXPECT_LT(r.drift_translation_m.min, 1e-3);  // before the slip: only the fitted point q's bias
+}
+
 TEST(ObjectTrajectory, RelativeMotionSeesTranslationNoise) {
   const Trajectory gt = wobbly_trajectory(100, 30);
   Trajectory est = gt;
