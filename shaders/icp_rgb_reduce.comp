@@ -115,6 +115,37 @@ void main() {
     }
   }
 
+  // The outline (model -> live): each reference pixel against the unmasked live intensity where
+  // the motion puts it, r = I_live(pi(x)) - I_ref with x = T^-1 v_ref. For an increment d applied
+  // as exp(d) T, dx = -R^T (d_t + d_w x v_ref), so J = -(G, v_ref x G) with G = R dI/dx.
+  if (p.use_photometric != 0u && p.outline_photometric != 0u) {
+    const mat3 Rt = transpose(R);
+    const vec3 t_inv = -(Rt * t);
+    for (uint ri = gl_GlobalInvocationID.x; ri < n; ri += stride) {
+      const uint j = (p.rect_y0 + ri / p.rect_width) * p.width + p.rect_x0 + ri % p.rect_width;  // reference pixel
+      const vec4 v_ref = ref_vertex[j];
+      if (v_ref.w <= 0.0) continue;
+      const vec3 x_live = Rt * v_ref.xyz + t_inv;
+      if (x_live.z <= 0.0) continue;
+      const float u = p.fx * x_live.x / x_live.z + p.cx, v = p.fy * x_live.y / x_live.z + p.cy;
+      if (!(u >= 0.0 && v >= 0.0 && u < float(w - 1) && v < float(h - 1))) continue;
+      const int u0 = int(floor(u)), v0 = int(floor(v));
+      const uint i00 = uint(v0 * w + u0), i10 = i00 + 1u, i01 = i00 + p.width, i11 = i01 + 1u;
+      const float au = u - float(u0), av = v - float(v0);
+      const vec4 wts = vec4((1.0 - au) * (1.0 - av), au * (1.0 - av), (1.0 - au) * av, au * av);
+      const float I = dot(wts, vec4(live_intensity[i00], live_intensity[i10], live_intensity[i01], live_intensity[i11]));
+      const float r = (I - ref_intensity[j]) * (1.0 / 255.0);
+      if (abs(r) > p.max_intensity_diff) continue;
+      const vec2 g = (wts.x * live_gradient[i00] + wts.y * live_gradient[i10] + wts.z * live_gradient[i01] +
+                      wts.w * live_gradient[i11]) * (1.0 / 255.0);
+      const float inv_z = 1.0 / x_live.z;
+      const vec3 dI_dx = vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z,
+                              -(g.x * p.fx * x_live.x + g.y * p.fy * x_live.y) * inv_z * inv_z);
+      const vec3 G = R * dI_dx;
+      const float sw = p.rgb_huber_delta > 0.0 && abs(r) > p.rgb_huber_delta ? sqrt(p.rgb_huber_delta / abs(r)) : 1.0;
+      accumulate(rgb, -sw * G, -sw * cross(v_ref.xyz, G), sw * r);
+    }
+  }
   // Subgroup sums, one slot per subgroup in shared memory, then one barrier.
   if (gl_SubgroupID < ICP_RGB_MAX_SUBGROUPS) {  // guaranteed by the host; keeps the indexing safe
     const vec4 sums[16] = vec4[16](subgroupAdd(icp.s0), subgroupAdd(icp.s1), subgroupAdd(icp.s2), subgroupAdd(icp.s3),

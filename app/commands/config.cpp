@@ -89,6 +89,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("use_photometric", c.use_photometric)
       .field("photometric_weight", c.photometric_weight)
       .field("esm_gradient", c.esm_gradient)
+      .field("outline_photometric", c.outline_photometric)
       .field("max_intensity_diff", c.max_intensity_diff)
       .field("photometric_huber_k", c.photometric_huber_k)
       .field("min_correspondences", c.min_correspondences)
@@ -157,7 +158,8 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("reactivate", c.reactivate)
       .field("reactivate_min_inlier_ratio", c.reactivate_min_inlier_ratio)
       .field("reactivate_max_rms_m", c.reactivate_max_rms_m)
-      .field("object_min_inlier_ratio", c.object_min_inlier_ratio);
+      .field("object_min_inlier_ratio", c.object_min_inlier_ratio)
+      .field("object_outline_photometric", c.object_outline_photometric);
   const std::string& where = s.where();
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
     throw Error(where + ".spawn_min_area_fraction: must be in (0, 1)");

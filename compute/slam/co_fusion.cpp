@@ -79,7 +79,10 @@ struct CoFusion::Model {
   }
   static TrackerParams tracker_params(const CoFusionParams& p, int id) {
     TrackerParams t = p.slam.tracker;
-    if (id != 0) t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
+    if (id != 0) {
+      t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
+      t.outline_photometric = p.lifecycle.object_outline_photometric;
+    }
     return t;
   }
 
@@ -347,7 +350,11 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     });
 
   gpu::CommandList pre = main_stream_.begin();
-  preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, params_.slam.effective_preprocess());
+  kernels::PreprocessParams preprocess = params_.slam.effective_preprocess();
+  // Objects' outline term reads the live gradients too.
+  preprocess.live_gradients = preprocess.live_gradients ||
+                              (params_.slam.tracker.use_photometric && params_.lifecycle.object_outline_photometric);
+  preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, preprocess);
   const gpu::TimelinePoint preprocessed = main_stream_.submit(std::move(pre));
   main_stream_.wait(preprocessed);
   stage("preprocess");

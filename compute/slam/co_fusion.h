@@ -140,6 +140,8 @@ struct LifecycleParams {
   // Object models fail tracking below this inlier ratio (their masked live pixels are few and
   // partly occluded; the background keeps TrackerParams::min_inlier_ratio).
   double object_min_inlier_ratio = 0.05;
+  // Object models also track with their outline (TrackerParams::outline_photometric).
+  bool object_outline_photometric = true;
 };
 
 // Objects at rest. A box seen edge-on as one striped face constrains few directions of its motion:

@@ -104,6 +104,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.rgb_huber_delta = static_cast<float>(rgb_huber_delta);
   p.use_photometric = params_.use_photometric ? 1u : 0u;
   p.esm_gradient = params_.esm_gradient ? 1u : 0u;
+  p.outline_photometric = params_.outline_photometric ? 1u : 0u;
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
   p.rect_x0 = static_cast<uint32_t>(r.x0);
   p.rect_y0 = static_cast<uint32_t>(r.y0);

@@ -121,6 +121,40 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         add(sums.rgb, J, sw * r);
       }
     }
+  // The outline, model -> live (see TrackerParams::outline_photometric and icp_rgb_reduce.comp).
+  if (params.use_photometric && params.outline_photometric) {
+    const Eigen::Matrix3d Rt = R.transpose();
+    const Eigen::Vector3d t_inv = -(Rt * T.translation());
+    for (int v = area.y0; v < area.y1; ++v)
+      for (int u = area.x0; u < area.x1; ++u) {
+        const glm::vec4& v_ref4 = ref.vertex.at(u, v);
+        if (!(v_ref4.w > 0)) continue;
+        const Eigen::Vector3d v_ref = xyz(v_ref4);
+        const Eigen::Vector3d x_live = Rt * v_ref + t_inv;
+        if (!(x_live.z() > 0)) continue;
+        const double x = k.fx * x_live.x() / x_live.z() + k.cx, y = k.fy * x_live.y() / x_live.z() + k.cy;
+        if (!(x >= 0 && y >= 0 && x < w - 1 && y < h - 1)) continue;
+        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+        const double ax = x - x0, ay = y - y0;
+        const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
+        auto bilinear = [&](const auto& image, auto get) {
+          return w00 * get(image.at(x0, y0)) + w10 * get(image.at(x0 + 1, y0)) + w01 * get(image.at(x0, y0 + 1)) +
+                 w11 * get(image.at(x0 + 1, y0 + 1));
+        };
+        const double I_live = bilinear(live.intensity, [](float i) { return double(i); });
+        const double r = (I_live - ref.intensity.at(u, v)) / 255.0;
+        if (!(std::abs(r) <= params.max_intensity_diff)) continue;
+        const double gx = bilinear(live.gradient, [](const glm::vec2& g) { return double(g.x); }) / 255.0;
+        const double gy = bilinear(live.gradient, [](const glm::vec2& g) { return double(g.y); }) / 255.0;
+        const double z = x_live.z();
+        const Eigen::Vector3d dI_dx(gx * k.fx / z, gy * k.fy / z, -(gx * k.fx * x_live.x() + gy * k.fy * x_live.y()) / (z * z));
+        const Eigen::Vector3d G = R * dI_dx;
+        const double sw = rgb_huber_delta > 0 && std::abs(r) > rgb_huber_delta ? std::sqrt(rgb_huber_delta / std::abs(r)) : 1.0;
+        Vector6d J;
+        J << -sw * G, -sw * v_ref.cross(G);
+        add(sums.rgb, J, sw * r);
+      }
+  }
   return sums;
 }
 

@@ -43,6 +43,14 @@ struct TrackerParams {
   // mm, fr1/rpy 2.78 -> 2.68 cm (before the TUM depth correction). Needs the live frame's
   // gradients (the pipelines compute them: SlamParams::effective_preprocess).
   bool esm_gradient = true;
+  // Also compare every predicted model pixel with the (unmasked) live intensity where the motion
+  // puts it (model -> live; the live gradient for its Jacobian), in the photometric sums. A model is
+  // tracked with the live pixels of its previous label, so its outline never meets the background
+  // there; from the model's side it does. An object whose pixels only constrain some directions
+  // (one striped face sliding along its stripes) is held by its outline in the others. The live
+  // frame's gradients are needed (as for esm_gradient). CoFusion turns it on for object models
+  // (LifecycleParams::object_outline_photometric).
+  bool outline_photometric = false;
   // |I_ref - I_live| / 255 above this is an outlier (occlusion, specularity, wrong association).
   double max_intensity_diff = 0.3;
   // Robust photometric term: residuals beyond photometric_huber_k times the RMS photometric

@@ -295,6 +295,11 @@ struct IcpRgbReduceParams {
   // Photometric Jacobian: 0 = the reference's intensity gradient at the warped point; 1 = the mean
   // of that and the live gradient at the pixel (efficient second-order minimisation).
   uint esm_gradient;
+  // 1: also every reference pixel in the rect against the live intensity where the motion puts it
+  // (r = I_live(pi(T^-1 v_ref)) - I_ref, live gradient), added to the photometric sums. The live
+  // intensity is not masked, so a model whose outline lags its object sees the background there:
+  // the outline constrains motions the object's own pixels do not (TrackerParams).
+  uint outline_photometric;
 };
 
 

@@ -77,7 +77,7 @@ std::set<int> object_model_ids(const SceneRun& r) {
 }
 
 // The multi-object issue's bounds on a generated scene: camera ATE <= 1 cm; every moving object
-// discovered (a model covering it with IoU >= 0.5) within 10 frames of its first motion; no other
+// discovered (a model covering it with IoU >= 0.5) within 10 frames of its first motion in view; no other
 // object model lives more than 10 frames; tracked-point ATE <= 1 cm per object; mean per-label IoU
 // >= 0.8 over the frames after each label's discovery allowance.
 void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun& r) {
@@ -92,7 +92,10 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
   std::map<int, int> model_of;  // gt object id -> model id
   std::map<int, int> start_of;
   for (int k = 1; k <= seq.object_count(); ++k) {
-    const int start = motion_start(seq, k);
+    // An object carried in from outside the view can be discovered only once it is in view.
+    int visible = 0;
+    while (visible < seq.size() && cv::countNonZero(r.gt_masks[size_t(visible)] == k) == 0) ++visible;
+    const int start = std::max(motion_start(seq, k), visible);
     start_of[k] = start;
     ASSERT_LT(start, seq.size() - 10) << "scene: object " << k << " must move early enough to be discovered";
     int discovered = -1;
@@ -183,10 +186,15 @@ TEST_F(CoFusionScenes, SlidingThenLiftedBoxKeepsOneModelSlow) {
 // pixels a new model is masked to before it is first tracked. Its first tracking starts from the
 // region's motion over the frame before it spawned; from a zero guess each new model stayed put,
 // lost the ball and another spawned every two frames (7 models for the ball, each deleted).
+//
+// The whole scene also meets the issue's bounds: the box, one narrow striped face carried along
+// its stripes, is held by its outline (TrackerParams::outline_photometric; 5-11 mm and re-found
+// mid-carry without it, 0.8-1.2 mm with it).
 TEST_F(CoFusionScenes, FastEnteringObjectIsTrackedByOneModelSlow) {
-  const synthetic::SyntheticSequence seq(synthetic::load_scene("table_placement"), 0, 136);
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("table_placement"));
   const SceneRun r = run(seq);
-  for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
+  expect_issue_bounds(seq, r);
+  EXPECT_EQ(object_model_ids(r).size(), 3u) << "one model per object";
   const int ball = 3, enters = 100;  // the ball is outside the view before frame 100
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.01);
 

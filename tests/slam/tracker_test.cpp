@@ -255,6 +255,26 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // With the outline term (model -> live): the ICP term as before, more photometric residuals.
+    {
+      slam::TrackerParams outline = params;
+      outline.outline_photometric = true;
+      tracker_->set_params(outline);
+      const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
+      const PixelRect inner{s.w / 4, s.h / 3, s.w / 4 + (s.w + 1) / 2, s.h / 3 + (s.h + 1) / 2};
+      const slam::LinearSystemSums g_rect = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, inner);
+      tracker_->set_params(params);
+      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, outline);
+      const slam::LinearSystemSums c_rect = ref::compute_sums(live_host, reference_host, T, outline, inner);
+      expect_sums_near(g.icp, c.icp, 2e-3, what + " outline icp");
+      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " outline rgb");
+      expect_sums_near(g_rect.rgb, c_rect.rgb, 2e-3, what + " outline rect rgb");
+      EXPECT_EQ(c.icp, cpu.icp) << what;
+      if (s.w >= 160) {
+        EXPECT_GT(c.rgb[28], 1.5 * cpu.rgb[28]) << what << ": the outline term added no residuals";
+      }
+    }
+
     // Restricted to a rectangle of live pixels (a model's region): an inner one, one reaching
     // past the image (clamped), a single pixel and an empty one.
     for (const PixelRect rect : {PixelRect{s.w / 4, s.h / 3, s.w / 4 + (s.w + 1) / 2, s.h / 3 + (s.h + 1) / 2},
@@ -289,6 +309,41 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
         EXPECT_LT(c.rgb[27], 0.8 * cpu.rgb[27]) << what;
       }
     }
+  }
+}
+
+// The outline term's Jacobian (model -> live, J = -(G, v_ref x G)) against finite differences of
+// its cost: d/de sum r^2 = 2 J^T r for an increment applied as exp(e) T, the convention of the
+// other terms. Its sums are those with the term minus those without (the sums add up).
+TEST_F(Tracking, OutlineTermJacobianMatchesFiniteDifferences) {
+  const Intrinsics k = intrinsics_for(160, 120);
+  const Scene scene = room_scene();
+  const auto reference = make_frame(render(scene, k, Isometry3d::Identity()), k, 1);
+  const auto live = make_frame(render(scene, k, moved_pose()), k, 1);
+  const auto live_host = ref::download_level(stream(), live.levels[0]);
+  const auto reference_host = ref::download_level(stream(), reference.levels[0]);
+  Vector6d perturbation;
+  perturbation << 0.004, -0.003, 0.002, 0.004, -0.003, 0.002;
+  const Isometry3d T = se3_exp(perturbation) * moved_pose();
+  slam::TrackerParams without, with;
+  with.outline_photometric = true;
+  const auto outline_term = [&](const Isometry3d& pose) {
+    const auto a = ref::compute_sums(live_host, reference_host, pose, with), b = ref::compute_sums(live_host, reference_host, pose, without);
+    std::array<double, slam::LinearSystemSums::kTermValues> t{};
+    for (size_t i = 0; i < t.size(); ++i) t[i] = a.rgb[i] - b.rgb[i];
+    return t;
+  };
+  const auto at_T = outline_term(T);
+  ASSERT_GT(at_T[28], 1000);
+  Matrix6d H;
+  Vector6d b;
+  slam::unpack_term(at_T, H, b);
+  const double eps = 2e-4;
+  for (int i = 0; i < 6; ++i) {
+    const Vector6d e = Vector6d::Unit(i) * eps;
+    const double plus = outline_term(se3_exp(e) * T)[27], minus = outline_term(se3_exp(-e) * T)[27];
+    const double numeric = (plus - minus) / (2 * eps);
+    EXPECT_NEAR(numeric, 2 * b(i), 0.15 * std::abs(2 * b.cwiseAbs().maxCoeff())) << "parameter " << i;
   }
 }
 
