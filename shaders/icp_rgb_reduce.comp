@@ -21,6 +21,7 @@ layout(std430, binding = ICP_RGB_BINDING_REF_INTENSITY) readonly buffer RefInten
 layout(std430, binding = ICP_RGB_BINDING_REF_GRADIENT) readonly buffer RefGradient { vec2 ref_gradient[]; };
 layout(std430, binding = ICP_RGB_BINDING_PARTIALS) writeonly buffer Partials { float partials[]; };
 layout(std430, binding = ICP_RGB_BINDING_LIVE_GRADIENT) readonly buffer LiveGradient { vec2 live_gradient[]; };
+layout(std430, binding = ICP_RGB_BINDING_LIVE_DEPTH) readonly buffer LiveDepth { float live_depth[]; };
 layout(push_constant) uniform Push { IcpRgbReduceParams p; };
 
 // 16 vec4 per subgroup: 8 for the ICP term (its 29 values, then the valid live count), 8 for the
@@ -116,7 +117,8 @@ void main() {
   }
 
   // The outline (model -> live): each reference pixel against the unmasked live intensity where
-  // the motion puts it, r = I_live(pi(x)) - I_ref with x = T^-1 v_ref. For an increment d applied
+  // the motion puts it, r = I_live(pi(x)) - I_ref with x = T^-1 v_ref, unless the live depth there
+  // is nearer (an occluder). For an increment d applied
   // as exp(d) T, dx = -R^T (d_t + d_w x v_ref), so J = -(G, v_ref x G) with G = R dI/dx.
   if (p.use_photometric != 0u && p.outline_photometric != 0u) {
     const mat3 Rt = transpose(R);
@@ -130,6 +132,9 @@ void main() {
       const float u = p.fx * x_live.x / x_live.z + p.cx, v = p.fy * x_live.y / x_live.z + p.cy;
       if (!(u >= 0.0 && v >= 0.0 && u < float(w - 1) && v < float(h - 1))) continue;
       const int u0 = int(floor(u)), v0 = int(floor(v));
+      // Something nearer than the model point there (another object in front): no outline.
+      const float z_live = live_depth[uint(int(floor(v + 0.5)) * w + int(floor(u + 0.5)))];
+      if (z_live > 0.0 && z_live < x_live.z - p.outline_occlusion_margin_m) continue;
       const uint i00 = uint(v0 * w + u0), i10 = i00 + 1u, i01 = i00 + p.width, i11 = i01 + 1u;
       const float au = u - float(u0), av = v - float(v0);
       const vec4 wts = vec4((1.0 - au) * (1.0 - av), au * (1.0 - av), (1.0 - au) * av, au * av);

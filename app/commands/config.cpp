@@ -90,6 +90,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("photometric_weight", c.photometric_weight)
       .field("esm_gradient", c.esm_gradient)
       .field("outline_photometric", c.outline_photometric)
+      .field("outline_occlusion_margin_m", c.outline_occlusion_margin_m)
       .field("max_intensity_diff", c.max_intensity_diff)
       .field("photometric_huber_k", c.photometric_huber_k)
       .field("min_correspondences", c.min_correspondences)

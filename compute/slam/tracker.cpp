@@ -65,7 +65,7 @@ void check_levels(const std::vector<kernels::FramePyramid::Level>& live,
 Tracker::Tracker(gpu::Context& ctx, TrackerParams params)
     : ctx_(ctx),
       params_(validated(std::move(params))),
-      reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 9, sizeof(L::IcpRgbReduceParams)) {
+      reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 10, sizeof(L::IcpRgbReduceParams)) {
   const auto& f = ctx.features();
   if (!f.subgroup_arithmetic)
     throw Error("Tracker: device '" + ctx.info().name + "' lacks subgroup arithmetic in compute shaders");
@@ -105,6 +105,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.use_photometric = params_.use_photometric ? 1u : 0u;
   p.esm_gradient = params_.esm_gradient ? 1u : 0u;
   p.outline_photometric = params_.outline_photometric ? 1u : 0u;
+  p.outline_occlusion_margin_m = static_cast<float>(params_.outline_occlusion_margin_m);
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
   p.rect_x0 = static_cast<uint32_t>(r.x0);
   p.rect_y0 = static_cast<uint32_t>(r.y0);
@@ -118,7 +119,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   auto cmd = stream.begin();
   cmd.dispatch(reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
-                reference.gradient, partials_, live.gradient},
+                reference.gradient, partials_, live.gradient, live.depth_m},
                p, groups);
   stream.submit(std::move(cmd));
   std::vector<float> partials(static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE);

@@ -24,9 +24,10 @@ struct HostLevel {
   kernels::Image<glm::vec4> normal;  // w = 1 valid
   kernels::Image<float> intensity;   // [0, 255]
   kernels::Image<glm::vec2> gradient;  // per pixel, [0, 255] units
+  kernels::Image<float> depth_m;       // metres, 0 = none (never masked)
 };
 
-// Downloads the vertex, normal, intensity and gradient maps of `level` (synchronous).
+// Downloads the vertex, normal, intensity, gradient and depth maps of `level` (synchronous).
 HostLevel download_level(gpu::Stream& stream, const kernels::FramePyramid::Level& level);
 std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& levels);
 

@@ -53,6 +53,8 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.photometric_weight >= 0 && std::isfinite(p.photometric_weight))) bad("photometric_weight must be >= 0");
   if (!(p.max_intensity_diff > 0)) bad("max_intensity_diff must be > 0");
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
+  if (!(p.outline_occlusion_margin_m >= 0 && std::isfinite(p.outline_occlusion_margin_m)))
+    bad("outline_occlusion_margin_m must be >= 0");
   if (p.min_correspondences < 0) bad("min_correspondences must be >= 0");
   if (p.min_coarse_level_correspondences < 0) bad("min_coarse_level_correspondences must be >= 0");
   if (!(p.min_inlier_ratio >= 0 && p.min_inlier_ratio <= 1)) bad("min_inlier_ratio must be in [0, 1]");

@@ -51,6 +51,9 @@ struct TrackerParams {
   // frame's gradients are needed (as for esm_gradient). CoFusion turns it on for object models
   // (LifecycleParams::object_outline_photometric).
   bool outline_photometric = false;
+  // Outline term: a model pixel where the live depth is nearer than the model point by more than
+  // this is occluded (another object in front) and left out.
+  double outline_occlusion_margin_m = 0.03;
   // |I_ref - I_live| / 255 above this is an outlier (occlusion, specularity, wrong association).
   double max_intensity_diff = 0.3;
   // Robust photometric term: residuals beyond photometric_huber_k times the RMS photometric

@@ -271,6 +271,7 @@ struct TestFillParams {
 #define ICP_RGB_BINDING_REF_GRADIENT 6    // vec2[] d intensity / d pixel, [0, 255] per pixel
 #define ICP_RGB_BINDING_PARTIALS 7        // float[workgroups * ICP_RGB_PARTIAL_STRIDE]
 #define ICP_RGB_BINDING_LIVE_GRADIENT 8   // vec2[] live d intensity / d pixel (read when esm_gradient != 0)
+#define ICP_RGB_BINDING_LIVE_DEPTH 9      // float[] live depth, metres, not masked (the outline term's occlusion test)
 #define ICP_RGB_GROUP_SIZE 256            // invocations per workgroup
 #define ICP_RGB_TERM_VALUES 29            // values per term (see above)
 #define ICP_RGB_OFFSET_ICP 0
@@ -300,6 +301,8 @@ struct IcpRgbReduceParams {
   // intensity is not masked, so a model whose outline lags its object sees the background there:
   // the outline constrains motions the object's own pixels do not (TrackerParams).
   uint outline_photometric;
+  // Outline term: a model pixel whose live depth there is nearer by more than this is occluded.
+  float outline_occlusion_margin_m;
 };
 
 

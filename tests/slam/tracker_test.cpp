@@ -273,6 +273,17 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       if (s.w >= 160) {
         EXPECT_GT(c.rgb[28], 1.5 * cpu.rgb[28]) << what << ": the outline term added no residuals";
       }
+      // With no margin, model pixels a little behind the live surface (the pose is 1 cm off) count
+      // as occluded: fewer outline residuals, GPU and CPU alike (the live depth is read).
+      outline.outline_occlusion_margin_m = 0.0;
+      tracker_->set_params(outline);
+      const slam::LinearSystemSums g_tight = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
+      tracker_->set_params(params);
+      const slam::LinearSystemSums c_tight = ref::compute_sums(live_host, reference_host, T, outline);
+      expect_sums_near(g_tight.rgb, c_tight.rgb, 2e-3, what + " outline occlusion rgb");
+      if (s.w >= 160) {
+        EXPECT_LT(c_tight.rgb[28], c.rgb[28] - 10) << what << ": the occlusion test removed nothing";
+      }
     }
 
     // Restricted to a rectangle of live pixels (a model's region): an inner one, one reaching
