@@ -189,7 +189,7 @@ TEST_F(CoFusionScenes, SlidingThenLiftedBoxKeepsOneModelSlow) {
 //
 // The whole scene also meets the bounds: the box, one narrow striped face carried along
 // its stripes, is held by its outline (TrackerParams::outline_photometric; 5-11 mm and re-found
-// mid-carry without it, 0.8-1.2 mm with it).
+// mid-carry without it, 0.8-1.4 mm with it).
 TEST_F(CoFusionScenes, FastEnteringObjectIsTrackedByOneModelSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("table_placement"));
   const SceneRun r = run(seq);
