@@ -116,10 +116,14 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   const uint32_t pixels = p.rect_width * p.rect_height;
   const uint32_t groups = std::clamp<uint32_t>(gpu::group_count(pixels, ICP_RGB_GROUP_SIZE), 1u,
                                                static_cast<uint32_t>(params_.reduction_workgroups));
+  // The outline term's occlusion test reads the live depth; without the term any float map of the
+  // level's size stands in (it is not read).
+  if (params_.outline_photometric && !live.depth_m) throw Error("Tracker: the outline term needs the live level's depth");
+  const gpu::BufferPtr& live_depth = live.depth_m ? live.depth_m : live.intensity;
   auto cmd = stream.begin();
   cmd.dispatch(reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
-                reference.gradient, partials_, live.gradient, live.depth_m},
+                reference.gradient, partials_, live.gradient, live_depth},
                p, groups);
   stream.submit(std::move(cmd));
   std::vector<float> partials(static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE);

@@ -45,7 +45,7 @@ HostLevel download_level(gpu::Stream& stream, const kernels::FramePyramid::Level
   out.normal = download_image<glm::vec4>(stream, level.normal, w, h);
   out.intensity = download_image<float>(stream, level.intensity, w, h);
   out.gradient = download_image<glm::vec2>(stream, level.gradient, w, h);
-  out.depth_m = download_image<float>(stream, level.depth_m, w, h);
+  if (level.depth_m) out.depth_m = download_image<float>(stream, level.depth_m, w, h);  // predictions have none
   return out;
 }
 
@@ -136,7 +136,9 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         const double x = k.fx * x_live.x() / x_live.z() + k.cx, y = k.fy * x_live.y() / x_live.z() + k.cy;
         if (!(x >= 0 && y >= 0 && x < w - 1 && y < h - 1)) continue;
         const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-        const float z_live = live.depth_m.at(static_cast<int>(std::floor(x + 0.5)), static_cast<int>(std::floor(y + 0.5)));
+        const float z_live = live.depth_m.width == w && live.depth_m.height == h
+                                 ? live.depth_m.at(static_cast<int>(std::floor(x + 0.5)), static_cast<int>(std::floor(y + 0.5)))
+                                 : 0.0f;
         if (z_live > 0 && z_live < x_live.z() - params.outline_occlusion_margin_m) continue;  // occluded
         const double ax = x - x0, ay = y - y0;
         const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;

@@ -24,7 +24,7 @@ struct HostLevel {
   kernels::Image<glm::vec4> normal;  // w = 1 valid
   kernels::Image<float> intensity;   // [0, 255]
   kernels::Image<glm::vec2> gradient;  // per pixel, [0, 255] units
-  kernels::Image<float> depth_m;       // metres, 0 = none (never masked)
+  kernels::Image<float> depth_m;       // metres, 0 = none (never masked); empty for a level without depth
 };
 
 // Downloads the vertex, normal, intensity, gradient and depth maps of `level` (synchronous).
