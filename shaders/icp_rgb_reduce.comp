@@ -45,6 +45,20 @@ void accumulate(inout Term t, vec3 a, vec3 b, float r) {  // J = (a, b)
   t.s7.x += 1.0;                                             // count
 }
 
+// dI/dq for an intensity gradient g (intensity / 255 per pixel) at the projection of q:
+// g * d pi(q) / dq, pi(q) = (fx qx/qz + cx, fy qy/qz + cy).
+vec3 intensity_jacobian(vec2 g, vec3 q) {
+  const float inv_z = 1.0 / q.z;
+  return vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z, -(g.x * p.fx * q.x + g.y * p.fy * q.y) * inv_z * inv_z);
+}
+// Huber weight, applied as sqrt(w) to J and r: sums of w J^T J, w J^T r, w r^2.
+float huber_sqrt_weight(float r) {
+  return p.rgb_huber_delta > 0.0 && abs(r) > p.rgb_huber_delta ? sqrt(p.rgb_huber_delta / abs(r)) : 1.0;
+}
+// Weights of the pixels (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1) at fraction a.
+vec4 bilinear_weights(vec2 a) {
+  return vec4((1.0 - a.x) * (1.0 - a.y), a.x * (1.0 - a.y), (1.0 - a.x) * a.y, a.x * a.y);
+}
 Term zero_term() {
   const vec4 z = vec4(0.0);
   return Term(z, z, z, z, z, z, z, z);
@@ -96,20 +110,15 @@ void main() {
       const uint j00 = uint(y0 * w + x0), j10 = j00 + 1u, j01 = j00 + p.width, j11 = j01 + 1u;
       if (ref_vertex[j00].w > 0.0 && ref_vertex[j10].w > 0.0 && ref_vertex[j01].w > 0.0 &&
           ref_vertex[j11].w > 0.0) {
-        const float ax = x - float(x0), ay = y - float(y0);
-        const vec4 wts = vec4((1.0 - ax) * (1.0 - ay), ax * (1.0 - ay), (1.0 - ax) * ay, ax * ay);
+        const vec4 wts = bilinear_weights(vec2(x - float(x0), y - float(y0)));
         const float I = dot(wts, vec4(ref_intensity[j00], ref_intensity[j10], ref_intensity[j01], ref_intensity[j11]));
         const float r = (I - live_intensity[i]) * (1.0 / 255.0);
         if (abs(r) <= p.max_intensity_diff) {
           vec2 g = (wts.x * ref_gradient[j00] + wts.y * ref_gradient[j10] + wts.z * ref_gradient[j01] +
                     wts.w * ref_gradient[j11]) * (1.0 / 255.0);
           if (p.esm_gradient != 0u) g = 0.5 * (g + live_gradient[i] * (1.0 / 255.0));
-          // dI/dq = g * d pi / d q
-          const float inv_z = 1.0 / q.z;
-          const vec3 dI_dq = vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z,
-                                  -(g.x * p.fx * q.x + g.y * p.fy * q.y) * inv_z * inv_z);
-          // Huber weight, applied as sqrt(w) to J and r: sums of w J^T J, w J^T r, w r^2.
-          const float sw = p.rgb_huber_delta > 0.0 && abs(r) > p.rgb_huber_delta ? sqrt(p.rgb_huber_delta / abs(r)) : 1.0;
+          const vec3 dI_dq = intensity_jacobian(g, q);
+          const float sw = huber_sqrt_weight(r);
           accumulate(rgb, sw * dI_dq, sw * cross(q, dI_dq), sw * r);
         }
       }
@@ -118,8 +127,8 @@ void main() {
 
   // The outline (model -> live): each reference pixel against the unmasked live intensity where
   // the motion puts it, r = I_live(pi(x)) - I_ref with x = T^-1 v_ref, unless the live depth there
-  // is nearer (an occluder). For an increment d applied
-  // as exp(d) T, dx = -R^T (d_t + d_w x v_ref), so J = -(G, v_ref x G) with G = R dI/dx.
+  // is nearer (an occluder). For an increment d applied as exp(d) T, dx = -R^T (d_t + d_w x v_ref),
+  // so J = -(G, v_ref x G) with G = R dI/dx.
   if (p.use_photometric != 0u && p.outline_photometric != 0u) {
     const mat3 Rt = transpose(R);
     const vec3 t_inv = -(Rt * t);
@@ -136,18 +145,14 @@ void main() {
       const float z_live = live_depth[uint(int(floor(v + 0.5)) * w + int(floor(u + 0.5)))];
       if (z_live > 0.0 && z_live < x_live.z - p.outline_occlusion_margin_m) continue;
       const uint i00 = uint(v0 * w + u0), i10 = i00 + 1u, i01 = i00 + p.width, i11 = i01 + 1u;
-      const float au = u - float(u0), av = v - float(v0);
-      const vec4 wts = vec4((1.0 - au) * (1.0 - av), au * (1.0 - av), (1.0 - au) * av, au * av);
+      const vec4 wts = bilinear_weights(vec2(u - float(u0), v - float(v0)));
       const float I = dot(wts, vec4(live_intensity[i00], live_intensity[i10], live_intensity[i01], live_intensity[i11]));
       const float r = (I - ref_intensity[j]) * (1.0 / 255.0);
       if (abs(r) > p.max_intensity_diff) continue;
       const vec2 g = (wts.x * live_gradient[i00] + wts.y * live_gradient[i10] + wts.z * live_gradient[i01] +
                       wts.w * live_gradient[i11]) * (1.0 / 255.0);
-      const float inv_z = 1.0 / x_live.z;
-      const vec3 dI_dx = vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z,
-                              -(g.x * p.fx * x_live.x + g.y * p.fy * x_live.y) * inv_z * inv_z);
-      const vec3 G = R * dI_dx;
-      const float sw = p.rgb_huber_delta > 0.0 && abs(r) > p.rgb_huber_delta ? sqrt(p.rgb_huber_delta / abs(r)) : 1.0;
+      const vec3 G = R * intensity_jacobian(g, x_live);
+      const float sw = huber_sqrt_weight(r);
       accumulate(rgb, -sw * G, -sw * cross(v_ref.xyz, G), sw * r);
     }
   }

@@ -337,12 +337,9 @@ Pose align_by_poses(const Trajectory& gt_in, const Trajectory& est_in, const Ass
   if (matches.empty()) throw Error("no matching timestamps between the two trajectories");
   Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
   for (const auto& m : matches) sum += gt[m.first].T_world_x.linear() * est[m.second].T_world_x.linear().transpose();
-  // The rotation nearest the sum (Frobenius): U V^T, with the sign fixed to a proper rotation.
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) D(2, 2) = -1;
+  // The rotation nearest the sum (maximising trace(R^T sum)).
   Pose T = Pose::Identity();
-  T.linear() = svd.matrixU() * D * svd.matrixV().transpose();
+  T.linear() = rotation_from_correlation(sum.transpose());
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
   for (const auto& m : matches) t += gt[m.first].T_world_x.translation() - T.linear() * est[m.second].T_world_x.translation();
   T.translation() = t / double(matches.size());

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -73,6 +74,18 @@ std::optional<double> tum_depth_correction(std::string_view preset) {
   if (n == "fr2" || n == "freiburg2") return 1.031;
   if (n == "fr3" || n == "freiburg3") return 1.0;
   return std::nullopt;
+}
+
+void require_plausible_depth_correction(double depth_correction, const std::string& where) {
+  if (!(depth_correction >= 0.5 && depth_correction <= 2.0))
+    throw Error(where + ": --depth-correction must be between 0.5 and 2 (recorded depth / it = metric depth), got " +
+                std::to_string(depth_correction));
+}
+
+std::string depth_correction_label(double depth_correction, const std::string& origin) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "depth / %.3f (", depth_correction);
+  return buf + origin + ")";
 }
 
 IntrinsicsChoice read_calibration_file(const fs::path& path) {

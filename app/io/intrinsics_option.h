@@ -34,6 +34,11 @@ std::optional<Intrinsics> intrinsics_preset(std::string_view name);
 // nullopt for names that are not TUM cameras (primesense included).
 std::optional<double> tum_depth_correction(std::string_view preset);
 
+// Throws cofusion::Error "<where>: --depth-correction must be between 0.5 and 2 ..." otherwise.
+void require_plausible_depth_correction(double depth_correction, const std::string& where);
+// " depth / 1.031 (<origin>)", as the sources' describe() show a correction.
+std::string depth_correction_label(double depth_correction, const std::string& origin);
+
 // A calibration file holding "fx fy cx cy [w h]" (whitespace separated, '#' comments allowed).
 // Throws cofusion::Error naming the file when it is missing, malformed or implausible.
 IntrinsicsChoice read_calibration_file(const std::filesystem::path& path);

@@ -1,9 +1,9 @@
 #include "io/source_adaptors.h"
 
 #include <algorithm>
-#include <cstdio>
 
 #include "common/error.h"
+#include "io/intrinsics_option.h"
 
 namespace cofusion {
 
@@ -32,9 +32,7 @@ std::string LimitedSource::describe() const {
 DepthCorrectedSource::DepthCorrectedSource(std::unique_ptr<FrameSource> inner, double depth_correction)
     : inner_(std::move(inner)), depth_correction_(depth_correction) {
   if (!inner_) throw Error("DepthCorrectedSource: no source given");
-  if (!(depth_correction_ >= 0.5 && depth_correction_ <= 2.0))
-    throw Error("--depth-correction must be between 0.5 and 2 (recorded depth / it = metric depth), got " +
-                std::to_string(depth_correction_));
+  require_plausible_depth_correction(depth_correction_, inner_->describe());
 }
 
 std::optional<Frame> DepthCorrectedSource::next() {
@@ -50,9 +48,7 @@ std::optional<Frame> DepthCorrectedSource::next() {
 }
 
 std::string DepthCorrectedSource::describe() const {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, " [depth / %.3f (--depth-correction)]", depth_correction_);
-  return inner_->describe() + buf;
+  return inner_->describe() + " [" + depth_correction_label(depth_correction_, "--depth-correction") + "]";
 }
 
 MemorySource::MemorySource(std::vector<Frame> frames, Intrinsics intrinsics, std::string description)

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -168,9 +167,7 @@ TumSource::TumSource(fs::path folder, TumSourceOptions options) : folder_(std::m
 
   if (options_.depth_correction) {
     depth_correction_ = *options_.depth_correction;
-    if (!(depth_correction_ >= 0.5 && depth_correction_ <= 2.0))
-      throw Error("TUM folder " + folder_.string() + ": --depth-correction must be between 0.5 and 2 (recorded depth / it = metric depth), got " +
-                  std::to_string(depth_correction_));
+    require_plausible_depth_correction(depth_correction_, "TUM folder " + folder_.string());
     depth_correction_origin_ = "--depth-correction";
   } else if (!intrinsics_.tum_preset.empty()) {
     depth_correction_ = tum_depth_correction(intrinsics_.tum_preset).value_or(1.0);
@@ -206,11 +203,7 @@ std::optional<Frame> TumSource::next() {
 std::string TumSource::describe() const {
   std::string s = "tum:" + folder_.string() + " (" + std::to_string(frames_.size()) + " frames, " + pairing_ + ", " +
                   intrinsics_.origin + ": " + intrinsics_.intrinsics.to_string();
-  if (depth_correction_ != 1.0) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, ", depth / %.3f (", depth_correction_);
-    s += buf + depth_correction_origin_ + ")";
-  }
+  if (depth_correction_ != 1.0) s += ", " + depth_correction_label(depth_correction_, depth_correction_origin_);
   if (!groundtruth_.empty()) s += ", ground truth";
   if (has_masks_) s += ", masks";
   return s + ")";

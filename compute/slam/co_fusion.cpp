@@ -138,6 +138,9 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
                 " pyramid levels");
   if (params.lifecycle.max_active_models < 1 || params.lifecycle.max_active_models > kSlots - 1)
     throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kSlots - 1) + "]");
+  preprocess_ = params.slam.effective_preprocess();
+  // Object trackers differ from the background's (the outline term reads the live gradients).
+  preprocess_.live_gradients = preprocess_.live_gradients || Model::tracker_params(params, 1).needs_live_gradients();
   const size_t n = size_t(intrinsics.width) * intrinsics.height;
   labels_ = gpu::Buffer::create(ctx, n * sizeof(uint32_t), "segmentation labels");
   slots_.assign(n, 0);
@@ -350,11 +353,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     });
 
   gpu::CommandList pre = main_stream_.begin();
-  kernels::PreprocessParams preprocess = params_.slam.effective_preprocess();
-  // Objects' outline term reads the live gradients too.
-  preprocess.live_gradients = preprocess.live_gradients ||
-                              (params_.slam.tracker.use_photometric && params_.lifecycle.object_outline_photometric);
-  preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, preprocess);
+  preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, preprocess_);
   const gpu::TimelinePoint preprocessed = main_stream_.submit(std::move(pre));
   main_stream_.wait(preprocessed);
   stage("preprocess");

@@ -255,6 +255,8 @@ class CoFusion {
   gpu::Context& ctx_;
   Intrinsics intrinsics_;
   CoFusionParams params_;
+  // The frame's preprocessing: the slam parameters' plus what the object trackers need.
+  kernels::PreprocessParams preprocess_;
   gpu::Stream main_stream_;
   kernels::Preprocessor preprocessor_;
   SurfelPipelines surfels_;

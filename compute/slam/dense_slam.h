@@ -29,7 +29,7 @@ struct SlamParams {
   // `preprocess` with what the tracker needs switched on (the live gradients of its ESM term).
   kernels::PreprocessParams effective_preprocess() const {
     kernels::PreprocessParams p = preprocess;
-    p.live_gradients = p.live_gradients || (tracker.use_photometric && (tracker.esm_gradient || tracker.outline_photometric));
+    p.live_gradients = p.live_gradients || tracker.needs_live_gradients();
     return p;
   }
 };

@@ -20,6 +20,36 @@ void add(Term& s, const Vector6d& J, double r) {
 
 Eigen::Vector3d xyz(const glm::vec4& v) { return {v.x, v.y, v.z}; }
 
+// Bilinear interpolation at (x, y) over the 2x2 pixels from (floor x, floor y); the caller keeps
+// them inside the image.
+struct Bilinear {
+  int x0, y0;
+  double w00, w10, w01, w11;
+  Bilinear(double x, double y) : x0(static_cast<int>(std::floor(x))), y0(static_cast<int>(std::floor(y))) {
+    const double ax = x - x0, ay = y - y0;
+    w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
+  }
+  template <typename Image, typename Get>
+  double operator()(const Image& image, Get get) const {
+    return w00 * get(image.at(x0, y0)) + w10 * get(image.at(x0 + 1, y0)) + w01 * get(image.at(x0, y0 + 1)) +
+           w11 * get(image.at(x0 + 1, y0 + 1));
+  }
+};
+double intensity_of(float i) { return double(i); }
+double gradient_x(const glm::vec2& g) { return double(g.x); }
+double gradient_y(const glm::vec2& g) { return double(g.y); }
+
+// Chain rule: dI/dq = (gx, gy) * d pi(q) / dq, pi(q) = (fx qx/qz + cx, fy qy/qz + cy).
+Eigen::Vector3d intensity_jacobian(double gx, double gy, const Intrinsics& k, const Eigen::Vector3d& q) {
+  const double z = q.z();
+  return {gx * k.fx / z, gy * k.fy / z, -(gx * k.fx * q.x() + gy * k.fy * q.y()) / (z * z)};
+}
+
+// Huber weight, applied as sqrt(w) to J and r: sums of w J^T J, w J^T r, w r^2.
+double huber_sqrt_weight(double r, double delta) {
+  return delta > 0 && std::abs(r) > delta ? std::sqrt(delta / std::abs(r)) : 1.0;
+}
+
 template <typename T>
 kernels::Image<T> download_image(gpu::Stream& stream, const gpu::BufferPtr& buffer, int w, int h) {
   kernels::Image<T> image(w, h);
@@ -93,30 +123,19 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
 
       if (params.use_photometric && x >= 0 && y >= 0 && x < w - 1 && y < h - 1 &&
           std::abs(q.z() - v_ref.z) <= max_d) {
-        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-        if (!(ref.vertex.at(x0, y0).w > 0 && ref.vertex.at(x0 + 1, y0).w > 0 && ref.vertex.at(x0, y0 + 1).w > 0 &&
-              ref.vertex.at(x0 + 1, y0 + 1).w > 0))
+        const Bilinear b(x, y);
+        if (!(ref.vertex.at(b.x0, b.y0).w > 0 && ref.vertex.at(b.x0 + 1, b.y0).w > 0 && ref.vertex.at(b.x0, b.y0 + 1).w > 0 &&
+              ref.vertex.at(b.x0 + 1, b.y0 + 1).w > 0))
           continue;
-        const double ax = x - x0, ay = y - y0;
-        const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
-        auto bilinear = [&](const auto& image, auto get) {
-          return w00 * get(image.at(x0, y0)) + w10 * get(image.at(x0 + 1, y0)) + w01 * get(image.at(x0, y0 + 1)) +
-                 w11 * get(image.at(x0 + 1, y0 + 1));
-        };
-        const double I_ref = bilinear(ref.intensity, [](float i) { return double(i); });
-        const double r = (I_ref - live.intensity.at(u, v)) / 255.0;
+        const double r = (b(ref.intensity, intensity_of) - live.intensity.at(u, v)) / 255.0;
         if (!(std::abs(r) <= params.max_intensity_diff)) continue;
-        double gx = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.x); }) / 255.0;
-        double gy = bilinear(ref.gradient, [](const glm::vec2& g) { return double(g.y); }) / 255.0;
+        double gx = b(ref.gradient, gradient_x) / 255.0, gy = b(ref.gradient, gradient_y) / 255.0;
         if (params.esm_gradient) {  // mean with the live gradient at the pixel
           gx = 0.5 * (gx + live.gradient.at(u, v).x / 255.0);
           gy = 0.5 * (gy + live.gradient.at(u, v).y / 255.0);
         }
-        // Chain rule: dI/dq = (gx, gy) * d pi(q) / dq, pi(q) = (fx qx/qz + cx, fy qy/qz + cy).
-        const double z = q.z();
-        const Eigen::Vector3d dI_dq(gx * k.fx / z, gy * k.fy / z, -(gx * k.fx * q.x() + gy * k.fy * q.y()) / (z * z));
-        // Huber weight, applied as sqrt(w) to J and r: sums of w J^T J, w J^T r, w r^2.
-        const double sw = rgb_huber_delta > 0 && std::abs(r) > rgb_huber_delta ? std::sqrt(rgb_huber_delta / std::abs(r)) : 1.0;
+        const Eigen::Vector3d dI_dq = intensity_jacobian(gx, gy, k, q);
+        const double sw = huber_sqrt_weight(r, rgb_huber_delta);
         Vector6d J;
         J << sw * dI_dq, sw * q.cross(dI_dq);
         add(sums.rgb, J, sw * r);
@@ -135,26 +154,16 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         if (!(x_live.z() > 0)) continue;
         const double x = k.fx * x_live.x() / x_live.z() + k.cx, y = k.fy * x_live.y() / x_live.z() + k.cy;
         if (!(x >= 0 && y >= 0 && x < w - 1 && y < h - 1)) continue;
-        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
         const float z_live = live.depth_m.width == w && live.depth_m.height == h
                                  ? live.depth_m.at(static_cast<int>(std::floor(x + 0.5)), static_cast<int>(std::floor(y + 0.5)))
                                  : 0.0f;
         if (z_live > 0 && z_live < x_live.z() - params.outline_occlusion_margin_m) continue;  // occluded
-        const double ax = x - x0, ay = y - y0;
-        const double w00 = (1 - ax) * (1 - ay), w10 = ax * (1 - ay), w01 = (1 - ax) * ay, w11 = ax * ay;
-        auto bilinear = [&](const auto& image, auto get) {
-          return w00 * get(image.at(x0, y0)) + w10 * get(image.at(x0 + 1, y0)) + w01 * get(image.at(x0, y0 + 1)) +
-                 w11 * get(image.at(x0 + 1, y0 + 1));
-        };
-        const double I_live = bilinear(live.intensity, [](float i) { return double(i); });
-        const double r = (I_live - ref.intensity.at(u, v)) / 255.0;
+        const Bilinear b(x, y);
+        const double r = (b(live.intensity, intensity_of) - ref.intensity.at(u, v)) / 255.0;
         if (!(std::abs(r) <= params.max_intensity_diff)) continue;
-        const double gx = bilinear(live.gradient, [](const glm::vec2& g) { return double(g.x); }) / 255.0;
-        const double gy = bilinear(live.gradient, [](const glm::vec2& g) { return double(g.y); }) / 255.0;
-        const double z = x_live.z();
-        const Eigen::Vector3d dI_dx(gx * k.fx / z, gy * k.fy / z, -(gx * k.fx * x_live.x() + gy * k.fy * x_live.y()) / (z * z));
-        const Eigen::Vector3d G = R * dI_dx;
-        const double sw = rgb_huber_delta > 0 && std::abs(r) > rgb_huber_delta ? std::sqrt(rgb_huber_delta / std::abs(r)) : 1.0;
+        const double gx = b(live.gradient, gradient_x) / 255.0, gy = b(live.gradient, gradient_y) / 255.0;
+        const Eigen::Vector3d G = R * intensity_jacobian(gx, gy, k, x_live);
+        const double sw = huber_sqrt_weight(r, rgb_huber_delta);
         Vector6d J;
         J << -sw * G, -sw * v_ref.cross(G);
         add(sums.rgb, J, sw * r);

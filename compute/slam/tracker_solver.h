@@ -54,6 +54,8 @@ struct TrackerParams {
   // Outline term: a model pixel where the live depth is nearer than the model point by more than
   // this is occluded (another object in front) and left out.
   double outline_occlusion_margin_m = 0.03;
+  // Whether the photometric Jacobian reads the live frame's gradients (ESM or the outline term).
+  bool needs_live_gradients() const { return use_photometric && (esm_gradient || outline_photometric); }
   // |I_ref - I_live| / 255 above this is an outlier (occlusion, specularity, wrong association).
   double max_intensity_diff = 0.3;
   // Robust photometric term: residuals beyond photometric_huber_k times the RMS photometric

@@ -77,12 +77,22 @@ TEST(SourceSpec, OpensTumWithIntrinsicsOption) {
               HasSubstr("--intrinsics 'garbage'"));
 }
 
-TEST(LimitedSource, StopsAtTheLimit) {
+// `n` 8x6 test frames at 10 Hz, and their intrinsics.
+std::vector<Frame> small_frames(int n) {
   std::vector<Frame> frames;
-  for (int i = 0; i < 5; ++i) frames.push_back(test::make_test_frame(8, 6, i, i * 0.1));
+  for (int i = 0; i < n; ++i) frames.push_back(test::make_test_frame(8, 6, i, i * 0.1));
+  return frames;
+}
+Intrinsics small_intrinsics() {
   Intrinsics k;
   k.width = 8;
   k.height = 6;
+  return k;
+}
+
+TEST(LimitedSource, StopsAtTheLimit) {
+  const std::vector<Frame> frames = small_frames(5);
+  const Intrinsics k = small_intrinsics();
   LimitedSource limited(std::make_unique<MemorySource>(frames, k, "five"), 3);
   EXPECT_EQ(limited.size(), 3);
   EXPECT_THAT(limited.describe(), HasSubstr("first 3 frames"));
@@ -96,12 +106,9 @@ TEST(LimitedSource, StopsAtTheLimit) {
 }
 
 TEST(DepthCorrectedSource, DividesEveryDepthReading) {
-  std::vector<Frame> frames;
-  for (int i = 0; i < 3; ++i) frames.push_back(test::make_test_frame(8, 6, i, i * 0.1));
+  std::vector<Frame> frames = small_frames(3);
   frames[1].depth_m.at<float>(2, 3) = 0.0f;  // no reading
-  Intrinsics k;
-  k.width = 8;
-  k.height = 6;
+  const Intrinsics k = small_intrinsics();
   DepthCorrectedSource corrected(std::make_unique<MemorySource>(frames, k, "three"), 1.031);
   EXPECT_EQ(corrected.size(), 3);
   EXPECT_THAT(corrected.describe(), HasSubstr("depth / 1.031"));
