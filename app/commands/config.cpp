@@ -155,6 +155,8 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("merge_window_frames", c.merge_window_frames)
       .field("merge_translation_m", c.merge_translation_m)
       .field("merge_rotation_deg", c.merge_rotation_deg)
+      .field("merge_history_translation_m", c.merge_history_translation_m)
+      .field("merge_history_rotation_deg", c.merge_history_rotation_deg)
       .field("duplicate_margin_rel", c.duplicate_margin_rel)
       .field("reactivate", c.reactivate)
       .field("reactivate_min_inlier_ratio", c.reactivate_min_inlier_ratio)

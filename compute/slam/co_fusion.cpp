@@ -87,7 +87,7 @@ struct CoFusion::Model {
   }
 
   int id;
-  int slot;  // label slot while active, -1 while inactive
+  int slot;  // label slot while active, -1 while inactive, -2 once merged away or deleted (pruned after the lifecycle step)
   ModelState state = ModelState::kActive;
   gpu::Stream stream;
   SurfelModel surfels;
@@ -118,8 +118,8 @@ struct CoFusion::Model {
   int last_frame;
   int unseen_frames = 0;
   bool on_probation = true;  // objects: not yet shown to move relative to the background
-  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;  // (frame, T_world_model) while active
-  std::vector<std::pair<int, Eigen::Isometry3d>> seen_trajectory;  // of those, the frames it was tracked in
+  PoseHistory trajectory;  // (frame, T_world_model) while active
+  PoseHistory seen_trajectory;  // of those, the frames it was tracked in
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -414,8 +414,12 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
   for (auto& m : models_)
     if (m->state == ModelState::kActive) fusing.push_back(m.get());
   const std::vector<PixelRect> fuse_rects = slot_rects(slots_, width, height);
+  // A new model's geometry may already be in other models: the background (an object that
+  // started moving after it was fused) or an object it moved with until now (an arm that carried
+  // the cube and lets go). Each older model drops its surfels on the new region's pixels.
   for_each_model(fusing, [&](Model& m) {
-    fuse_model(m, m.id == 0 ? spawned_slots : std::vector<int>{}, fuse_rects[size_t(m.slot)]);
+    const bool is_new = std::find(spawned_slots.begin(), spawned_slots.end(), m.slot) != spawned_slots.end();
+    fuse_model(m, is_new ? std::vector<int>{} : spawned_slots, fuse_rects[size_t(m.slot)]);
   });
   stage("fuse");
 
@@ -449,6 +453,19 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
 // ---------------------------------------------------------------------------------------------
 // Turns the segmentation (labels = index into `order`, order.size() = outlier) into model slots
 // and applies the lifecycle rules. Uploads the final label map.
+bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen::Isometry3d& T_a_b,
+                        double max_translation_m, double max_rotation_deg) {
+  auto ia = a.begin();
+  for (const auto& [frame, T_world_b] : b) {
+    while (ia != a.end() && ia->first < frame) ++ia;
+    if (ia == a.end()) break;
+    if (ia->first != frame) continue;
+    const Eigen::Isometry3d change = (ia->second.inverse() * T_world_b).inverse() * T_a_b;
+    if (change.translation().norm() > max_translation_m || rotation_deg(change) > max_rotation_deg) return false;
+  }
+  return true;
+}
+
 std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationResult& seg,
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
                                                std::vector<Model*>& order, CoFusionFrame& out,
@@ -500,7 +517,9 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
         return T.translation().norm() >= p.static_translation_m || rotation_deg(T) >= p.static_rotation_deg;
       };
       if (change.translation().norm() < p.merge_translation_m && rotation_deg(change) < p.merge_rotation_deg &&
-          moved(a_moved) && moved(b_moved)) {
+          moved(a_moved) && moved(b_moved) &&
+          relative_pose_held(a->trajectory, b->trajectory, rel_now, p.merge_history_translation_m,
+                             p.merge_history_rotation_deg)) {
         relabel(b->slot, a->slot);
         merge_into(*a, *b, out, "moves with model " + std::to_string(a->id));
       }
@@ -623,7 +642,8 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
     if (p.reactivate)
       for (const ModelState state : {ModelState::kActive, ModelState::kInactive}) {
         for (auto& m : models_) {
-          if (m->state != state || m->id == 0 || (state == ModelState::kActive && !lost(*m))) continue;
+          // A model merged away this frame is inactive until the list is pruned: not a candidate.
+          if (m->state != state || m->id == 0 || m->slot == -2 || (state == ModelState::kActive && !lost(*m))) continue;
           if (try_reactivate(*m, sp.slot, centroid)) {
             reactivated = m.get();
             was_active = state == ModelState::kActive;

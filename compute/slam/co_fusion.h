@@ -12,8 +12,8 @@
 //   3. motion segmentation on the CPU (unaries from those costs, fully connected CRF over the
 //      superpixels, connected components);
 //   4. lifecycle: spawn a model from a large outlier region (or re-activate an inactive model
-//      that matches it), remove its duplicate from the background, merge spurious / co-moving
-//      models, retire models whose label has been absent for a while;
+//      that matches it), remove its duplicate from the older models, merge spurious /
+//      co-moving models (never two that once moved apart), retire models whose label has been absent for a while;
 //   5. every active model fuses the pixels labelled with it (again one stream per model).
 #include <memory>
 #include <optional>
@@ -119,8 +119,15 @@ struct LifecycleParams {
   int merge_window_frames = 10;
   double merge_translation_m = 0.01;
   double merge_rotation_deg = 2.0;
-  // Duplicate removal at spawn: background surfels on the new model's pixels that lie in front of
-  // or within this fraction of the live depth behind the live surface are removed.
+  // ... unless their relative pose differed from today's by more than these in some frame both
+  // were active: bodies that once moved apart are two objects that move together for a while (the
+  // paper's handover: an arm carrying the teddy), not one object split into two models. Tracking
+  // noise of one object's two models stays well inside them.
+  double merge_history_translation_m = 0.03;
+  double merge_history_rotation_deg = 10.0;
+  // Duplicate removal at spawn: surfels of the older models (the background, and an object the new
+  // one moved with until now) on the new model's pixels that lie in front of or within this
+  // fraction of the live depth behind the live surface are removed.
   float duplicate_margin_rel = 0.03f;
   // The background also tracks with unclaimed pixels (outliers that spawned nothing) once they
   // cover more than this fraction of the previous frame: that many outliers mean the camera's
@@ -175,6 +182,15 @@ struct CoFusionParams {
   bool motion_segmentation = true;
 };
 
+// (frame, T_world_model) per frame, ascending frames.
+using PoseHistory = std::vector<std::pair<int, Eigen::Isometry3d>>;
+
+// Whether the relative pose of two models (a's pose inverse times b's) stayed within
+// (max_translation_m, max_rotation_deg) of T_a_b in every frame both have a pose for. Two models
+// of one rigid body keep their relative pose; two bodies that once moved apart do not (merging).
+bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen::Isometry3d& T_a_b,
+                        double max_translation_m, double max_rotation_deg);
+
 enum class ModelState { kActive, kInactive };
 const char* to_string(ModelState state);
 
@@ -213,7 +229,7 @@ struct ModelSnapshot {
   int first_frame = 0, last_frame = 0;
   // (frame, T_world_model) in the frames it was active and its tracking did not fail (the frame
   // it spawned or re-activated included): a failed tracking only guesses the pose.
-  std::vector<std::pair<int, Eigen::Isometry3d>> trajectory;
+  PoseHistory trajectory;
 };
 
 // Thread safety: one thread calls process() at a time; it uses its own worker threads inside.

@@ -45,16 +45,36 @@ class CoFusionScenes : public GpuTest {
   }
 };
 
-// First frame at which object `id` has moved (1 mm or 0.1 degrees) from its pose at frame 0.
-int motion_start(const synthetic::SyntheticSequence& seq, int id) {
-  const auto first = seq.T_world_object(id, 0);
-  for (int f = 1; f < seq.size(); ++f) {
-    const auto T = seq.T_world_object(id, f);
-    if (!first || !T) return f;
-    const Eigen::Isometry3d d = first->inverse() * *T;
-    if (d.translation().norm() > 1e-3 || rotation_angle_rad(d) > 0.1 * M_PI / 180) return f;
-  }
-  return seq.size();
+// First frame from which object `id`'s motion has told it apart from every other body: from the
+// background when it first moves (1 mm or 0.1 degrees from its first pose), from each other object
+// when their relative pose first changes (frames where both are present). Bodies that move as one
+// are one model until they move apart; the paper's handover: "At the start, the left arm and teddy
+// are represented by the same model, since they move together."
+int separable_from(const synthetic::SyntheticSequence& seq, int id) {
+  const auto changed = [](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+    const Eigen::Isometry3d d = a.inverse() * b;
+    return d.translation().norm() > 1e-3 || rotation_angle_rad(d) > 0.1 * M_PI / 180;
+  };
+  // First frame at which `relative(f)` differs from its value at the first frame it has one.
+  const auto first_change = [&](const auto& relative) {
+    std::optional<Eigen::Isometry3d> first;
+    for (int f = 0; f < seq.size(); ++f) {
+      const std::optional<Eigen::Isometry3d> r = relative(f);
+      if (!r) continue;
+      if (!first) first = r;
+      else if (changed(*first, *r)) return f;
+    }
+    return first ? seq.size() : 0;  // never present together: nothing to tell apart
+  };
+  int separable = first_change([&](int f) { return seq.T_world_object(id, f); });
+  for (int j = 1; j <= seq.object_count(); ++j)
+    if (j != id)
+      separable = std::max(separable, first_change([&](int f) -> std::optional<Eigen::Isometry3d> {
+                             const auto a = seq.T_world_object(j, f), b = seq.T_world_object(id, f);
+                             if (!a || !b) return std::nullopt;
+                             return a->inverse() * *b;
+                           }));
+  return separable;
 }
 
 double iou(const cv::Mat& gt, const std::vector<uint16_t>& labels, int gt_id, int model_id) {
@@ -77,7 +97,8 @@ std::set<int> object_model_ids(const SceneRun& r) {
 }
 
 // The multi-object issue's bounds on a generated scene: camera ATE <= 1 cm; every moving object
-// discovered (a model covering it with IoU >= 0.5) within 10 frames of its first motion in view; no other
+// discovered (a model covering it with IoU >= 0.5) within 10 frames of the first frame in which it
+// covers the spawn threshold and its motion has told it apart from every other body (separable_from); no other
 // object model lives more than 10 frames; tracked-point ATE <= 1 cm per object; mean per-label IoU
 // >= 0.8 over the frames after each label's discovery allowance.
 void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun& r) {
@@ -88,14 +109,17 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
   ::testing::Test::RecordProperty("camera_ate_m", std::to_string(camera_ate));
   EXPECT_LE(camera_ate, 0.01);
 
-  // Discovery: a model covering the object (IoU >= 0.5) within 10 frames of its first motion.
+  // Discovery: a model covering the object (IoU >= 0.5) within 10 frames of it being separable.
   std::map<int, int> model_of;  // gt object id -> model id
-  std::map<int, int> start_of;
+  std::map<int, int> start_of, discovered_at;
   for (int k = 1; k <= seq.object_count(); ++k) {
-    // An object carried in from outside the view can be discovered only once it is in view.
+    // An object carried in from outside the view can be discovered only once it is in view, and
+    // by the paper's rule only once it covers the spawn threshold (3% of the image): an arm
+    // reaching in from the border takes 15 frames to get there.
+    const int spawn_pixels = int(slam::LifecycleParams{}.spawn_min_area_fraction * double(r.gt_masks[0].total()));
     int visible = 0;
-    while (visible < seq.size() && cv::countNonZero(r.gt_masks[size_t(visible)] == k) == 0) ++visible;
-    const int start = std::max(motion_start(seq, k), visible);
+    while (visible < seq.size() && cv::countNonZero(r.gt_masks[size_t(visible)] == k) < spawn_pixels) ++visible;
+    const int start = std::max(separable_from(seq, k), visible);
     start_of[k] = start;
     ASSERT_LT(start, seq.size() - 10) << "scene: object " << k << " must move early enough to be discovered";
     int discovered = -1;
@@ -107,6 +131,9 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
       }
     }
     ASSERT_GE(discovered, 0) << "object " << k << " (moving from frame " << start << ") never discovered";
+    discovered_at[k] = discovered;
+    std::printf("  object %d: separable and in view from frame %d, discovered at %d by model %d\n", k, start, discovered,
+                model_of[k]);
     ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_discovery_delay_frames", discovered - start);
     EXPECT_LE(discovered - start, 10) << "object " << k;
   }
@@ -125,10 +152,19 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
   // Per-object trajectories: the object's ground-truth origin carried by T_world_model.
   for (const auto& [k, id] : model_of) {
     Trajectory est;
+    std::set<int> tracked;
     for (const auto& m : r.models)
       if (m.id == id)
-        for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T});
-    ASSERT_GE(est.size(), 15u) << "model " << id;
+        for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T}), tracked.insert(f);
+    // Tracked in most frames since its discovery in which it covers at least 1% of the image (an
+    // object that leaves soon after it is told apart has a short trajectory).
+    int in_view = 0, tracked_in_view = 0;
+    for (int f = discovered_at[k]; f < seq.size(); ++f)
+      if (cv::countNonZero(r.gt_masks[size_t(f)] == k) >= int(r.gt_masks[size_t(f)].total() / 100))
+        ++in_view, tracked_in_view += int(tracked.count(f));
+    ASSERT_GE(est.size(), 8u) << "model " << id;
+    EXPECT_GE(3 * tracked_in_view, 2 * in_view) << "model " << id << " tracked in " << tracked_in_view << " of "
+                                                << in_view << " frames in which object " << k << " is in view";
     const auto errors = eval::compute_object_trajectory_errors(seq.object_trajectory(k), est);
     ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_ate_m", std::to_string(errors.tracked_point_m.rmse));
     EXPECT_LE(errors.tracked_point_m.rmse, 0.01) << "object " << k << " (model " << id << ")";
@@ -165,6 +201,18 @@ TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
 
 // Five objects picked up one after another, each next to others already moving the same way: the
 // benchmark's 6-model scene under the same bounds.
+// The paper's handover: arm A carries the cube in, arm B takes it, arm A leaves, arm B puts the
+// cube down and leaves. Arm A and the cube move as one and are one model until the handover; then
+// arm A is split off as its own model, and arm B, found while it reached for the cube, is not
+// merged with the cube while it carries it (they once moved apart). Four bodies, four models.
+TEST_F(CoFusionScenes, HandoverSplitsTheArmsFromTheCubeSlow) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("handover"));
+  const SceneRun r = run(seq);
+  expect_issue_bounds(seq, r);
+  EXPECT_EQ(object_model_ids(r).size(), 3u) << "one model per moving body";
+  for (const auto& e : r.events) EXPECT_EQ(e.find("merged"), std::string::npos) << e;
+}
+
 TEST_F(CoFusionScenes, FiveObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("five_objects"));
   expect_issue_bounds(seq, run(seq));
@@ -276,6 +324,50 @@ TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
   std::printf("  back in view at frame %d, covered from %d\n", back, first_covered);
   EXPECT_LE(first_covered - back, 10);
   EXPECT_GE(covered, seq.size() - first_covered - 2) << "frames covered since frame " << first_covered;
+}
+
+// The merge rule's history: two models of one body keep their relative pose (up to noise), two
+// bodies that once moved apart (an arm that reached for a cube, then carries it) do not; frames
+// only one of them has a pose for are not compared.
+TEST(RelativePoseHeldTest, TellsOneBodyFromTwoThatMovedApart) {
+  const auto pose = [](double x, double angle_deg) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(x, 0.2, 1.0);
+    T.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return T;
+  };
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  offset.translation() = Eigen::Vector3d(0.1, -0.05, 0.0);
+  slam::PoseHistory a, same, apart;
+  for (int f = 0; f < 40; ++f) {
+    a.emplace_back(f, pose(0.01 * f, 0.5 * f));
+    if (f >= 10) {  // the second model exists from frame 10
+      const double noise = (f % 2 ? 1 : -1) * 0.004;  // 4 mm of tracking noise
+      same.emplace_back(f, a.back().second * offset * Eigen::Translation3d(noise, 0, 0));
+      const double reach = f < 25 ? 0.01 * (25 - f) : 0.0;  // 15 cm apart at frame 10, together from 25
+      apart.emplace_back(f, a.back().second * offset * Eigen::Translation3d(0, reach, 0));
+    }
+  }
+  const Eigen::Isometry3d T_a_b = offset;
+  EXPECT_TRUE(slam::relative_pose_held(a, same, T_a_b, 0.03, 10.0));
+  EXPECT_FALSE(slam::relative_pose_held(a, apart, T_a_b, 0.03, 10.0));
+  // Only the recent, common frames: together.
+  const slam::PoseHistory recent(apart.begin() + 15, apart.end());
+  EXPECT_TRUE(slam::relative_pose_held(a, recent, T_a_b, 0.03, 10.0));
+  // A turn apart counts too.
+  slam::PoseHistory turned = same;
+  turned[3].second = turned[3].second * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX());
+  EXPECT_FALSE(slam::relative_pose_held(a, turned, T_a_b, 0.03, 10.0));
+  // Gaps in either history (frames it was inactive) are skipped; no common frame: nothing contradicts.
+  slam::PoseHistory gappy;
+  for (const auto& entry : apart)
+    if (entry.first >= 25) gappy.push_back(entry);
+  slam::PoseHistory a_gappy;
+  for (const auto& entry : a)
+    if (entry.first % 2 == 0) a_gappy.push_back(entry);
+  EXPECT_TRUE(slam::relative_pose_held(a_gappy, gappy, T_a_b, 0.03, 10.0));
+  EXPECT_FALSE(slam::relative_pose_held(a_gappy, apart, T_a_b, 0.03, 10.0));
+  EXPECT_TRUE(slam::relative_pose_held(slam::PoseHistory(a.begin(), a.begin() + 10), apart, T_a_b, 0.03, 10.0));
 }
 
 // The window counts behind "near the object's geometry": against a direct count, windows
