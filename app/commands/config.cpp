@@ -162,7 +162,10 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("reactivate_min_inlier_ratio", c.reactivate_min_inlier_ratio)
       .field("reactivate_max_rms_m", c.reactivate_max_rms_m)
       .field("object_min_inlier_ratio", c.object_min_inlier_ratio)
-      .field("object_outline_photometric", c.object_outline_photometric);
+      .field("object_outline_photometric", c.object_outline_photometric)
+      .field("object_iterations_per_level", c.object_iterations_per_level);
+  for (int n : c.object_iterations_per_level)
+    if (n < 0 || n > 100) throw Error(s.where() + ".object_iterations_per_level: each must be 0..100");
   const std::string& where = s.where();
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
     throw Error(where + ".spawn_min_area_fraction: must be in (0, 1)");

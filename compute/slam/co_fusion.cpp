@@ -82,6 +82,7 @@ struct CoFusion::Model {
     if (id != 0) {
       t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
       t.outline_photometric = p.lifecycle.object_outline_photometric;
+      t.iterations_per_level = p.lifecycle.object_iterations_per_level;
     }
     return t;
   }
@@ -136,6 +137,9 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
   if (int(params.slam.tracker.iterations_per_level.size()) < params.slam.preprocess.pyramid_levels)
     throw Error("tracker needs iterations for each of the " + std::to_string(params.slam.preprocess.pyramid_levels) +
                 " pyramid levels");
+  if (int(params.lifecycle.object_iterations_per_level.size()) < params.slam.preprocess.pyramid_levels)
+    throw Error("lifecycle.object_iterations_per_level needs iterations for each of the " +
+                std::to_string(params.slam.preprocess.pyramid_levels) + " pyramid levels");
   if (params.lifecycle.max_active_models < 1 || params.lifecycle.max_active_models > kSlots - 1)
     throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kSlots - 1) + "]");
   preprocess_ = params.slam.effective_preprocess();

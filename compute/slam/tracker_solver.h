@@ -18,11 +18,12 @@ namespace cofusion::slam {
 struct TrackerParams {
   // Most Gauss-Newton iterations per pyramid level, index 0 = full resolution. Each level has 1/4
   // of the pixels of the one below, so coarse iterations are cheap and do most of the work.
-  // Measured on lavapipe (2 cores shared with other work): one 640x480 iteration costs 22 ms
-  // (ICP) or 34 ms (ICP + photometric), 80x60 under 1 ms; track() typically stops after about
-  // 10 iterations (converged_*) in 33 ms (ICP) or 56 ms (both). On TUM fr2/desk 1, 2 or 4
-  // full-resolution iterations gave the same accuracy.
-  std::vector<int> iterations_per_level = {2, 4, 6, 10};
+  // Measured on lavapipe (2 cores shared with other work): one 640x480 iteration (ICP +
+  // photometric) costs 22 ms, 320x240 5 ms, 80x60 0.7 ms (mostly the round trip); levels 1-3 ran
+  // to their caps in most frames. {1, 2, 4, 8} against {2, 4, 6, 10}: TUM fr2/desk 3.9 vs 3.7 mm,
+  // fr1/rpy 2.56 vs 2.58 cm, the generated scenes within their run-to-run spread, and background +
+  // 2 objects 12-16% faster (2.7 -> 3.0-3.1 fps in a slow phase of this machine).
+  std::vector<int> iterations_per_level = {1, 2, 4, 8};
 
   // ICP data association (ElasticFusion's values): projective nearest pixel, then rejection.
   double max_correspondence_distance_m = 0.1;  // |T v_live - v_ref| above this: no correspondence

@@ -45,35 +45,39 @@ class CoFusionScenes : public GpuTest {
   }
 };
 
-// First frame from which object `id`'s motion has told it apart from every other body: from the
-// background when it first moves (1 mm or 0.1 degrees from its first pose), from each other object
-// when their relative pose first changes (frames where both are present). Bodies that move as one
-// are one model until they move apart; the paper's handover: "At the start, the left arm and teddy
-// are represented by the same model, since they move together."
+// First frame from which object `id`'s motion has told it apart from every other body: its
+// first motion (1 mm or 0.1 degrees from its first pose), or, where another object moved with it
+// rigidly from that first motion on, the first frame their relative pose changes (or the other
+// one is gone). Bodies that move as one are one model until they move apart; the paper's
+// handover: "At the start, the left arm and teddy are represented by the same model, since they
+// move together."
 int separable_from(const synthetic::SyntheticSequence& seq, int id) {
   const auto changed = [](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
     const Eigen::Isometry3d d = a.inverse() * b;
     return d.translation().norm() > 1e-3 || rotation_angle_rad(d) > 0.1 * M_PI / 180;
   };
-  // First frame at which `relative(f)` differs from its value at the first frame it has one.
-  const auto first_change = [&](const auto& relative) {
-    std::optional<Eigen::Isometry3d> first;
-    for (int f = 0; f < seq.size(); ++f) {
-      const std::optional<Eigen::Isometry3d> r = relative(f);
-      if (!r) continue;
-      if (!first) first = r;
-      else if (changed(*first, *r)) return f;
-    }
-    return first ? seq.size() : 0;  // never present together: nothing to tell apart
-  };
-  int separable = first_change([&](int f) { return seq.T_world_object(id, f); });
-  for (int j = 1; j <= seq.object_count(); ++j)
-    if (j != id)
-      separable = std::max(separable, first_change([&](int f) -> std::optional<Eigen::Isometry3d> {
-                             const auto a = seq.T_world_object(j, f), b = seq.T_world_object(id, f);
-                             if (!a || !b) return std::nullopt;
-                             return a->inverse() * *b;
-                           }));
+  int first = 0;
+  while (first < seq.size() && !seq.T_world_object(id, first)) ++first;
+  if (first == seq.size()) return seq.size();
+  int moves = first + 1;
+  while (moves < seq.size() && seq.T_world_object(id, moves) &&
+         !changed(*seq.T_world_object(id, first), *seq.T_world_object(id, moves)))
+    ++moves;
+  if (moves >= seq.size()) return seq.size();
+  int separable = moves;
+  for (int j = 1; j <= seq.object_count(); ++j) {
+    if (j == id) continue;
+    const auto relative = [&](int f) -> std::optional<Eigen::Isometry3d> {
+      const auto a = seq.T_world_object(j, f), b = seq.T_world_object(id, f);
+      if (!a || !b) return std::nullopt;
+      return a->inverse() * *b;
+    };
+    const auto before = relative(moves - 1), at = relative(moves);
+    if (!before || !at || changed(*before, *at)) continue;  // not moving with it
+    int parts = moves + 1;
+    while (parts < seq.size() && relative(parts) && !changed(*before, *relative(parts))) ++parts;
+    separable = std::max(separable, parts);
+  }
   return separable;
 }
 
@@ -413,6 +417,18 @@ TEST_F(CoFusionScenes, RejectsTooManyModels) {
   slam::CoFusionParams params;
   params.lifecycle.max_active_models = 40;
   EXPECT_THROW(CoFusion(ctx(), seq.intrinsics(), params), Error);
+}
+
+TEST_F(CoFusionScenes, RejectsObjectIterationsForFewerLevelsThanThePyramid) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("static_room"), 0, 1);
+  slam::CoFusionParams params;
+  params.lifecycle.object_iterations_per_level = {2, 4};
+  try {
+    CoFusion slam(ctx(), seq.intrinsics(), params);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("object_iterations_per_level"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
