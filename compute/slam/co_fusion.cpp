@@ -455,8 +455,6 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Turns the segmentation (labels = index into `order`, order.size() = outlier) into model slots
-// and applies the lifecycle rules. Uploads the final label map.
 bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen::Isometry3d& T_a_b,
                         double max_translation_m, double max_rotation_deg) {
   auto ia = a.begin();
@@ -470,6 +468,8 @@ bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen:
   return true;
 }
 
+// Turns the segmentation (labels = index into `order`, order.size() = outlier) into model slots
+// and applies the lifecycle rules. Uploads the final label map.
 std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationResult& seg,
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
                                                std::vector<Model*>& order, CoFusionFrame& out,

@@ -13,7 +13,8 @@
 //      superpixels, connected components);
 //   4. lifecycle: spawn a model from a large outlier region (or re-activate an inactive model
 //      that matches it), remove its duplicate from the older models, merge spurious /
-//      co-moving models (never two that once moved apart), retire models whose label has been absent for a while;
+//      co-moving models (never two that once moved apart), retire models whose label has been
+//      absent for a while;
 //   5. every active model fuses the pixels labelled with it (again one stream per model).
 #include <memory>
 #include <optional>

@@ -21,8 +21,9 @@ struct TrackerParams {
   // Measured on lavapipe (2 cores shared with other work): one 640x480 iteration (ICP +
   // photometric) costs 22 ms, 320x240 5 ms, 80x60 0.7 ms (mostly the round trip); levels 1-3 ran
   // to their caps in most frames. {1, 2, 4, 8} against {2, 4, 6, 10}: TUM fr2/desk 3.9 vs 3.7 mm,
-  // fr1/rpy 2.56 vs 2.58 cm, the generated scenes within their run-to-run spread, and background +
-  // 2 objects 12-16% faster (2.7 -> 3.0-3.1 fps in a slow phase of this machine).
+  // fr1/rpy 2.56 vs 2.58 cm, the generated scenes within their run-to-run spread; over six
+  // interleaved benchmark runs, background only 15-45% faster, background + 2 objects (whose
+  // trackers keep more: LifecycleParams::object_iterations_per_level) median 3.3 -> 3.6 fps.
   std::vector<int> iterations_per_level = {1, 2, 4, 8};
 
   // ICP data association (ElasticFusion's values): projective nearest pixel, then rejection.
