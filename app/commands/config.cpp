@@ -82,6 +82,12 @@ void read_preprocess(Section& s, kernels::PreprocessParams& c) {
     throw Error(where + ": bilateral sigmas must be positive");
 }
 
+// Gauss-Newton iterations per pyramid level (tracker and object trackers).
+void require_iteration_counts(const std::vector<int>& counts, const std::string& where) {
+  for (int n : counts)
+    if (n < 0 || n > 100) throw Error(where + ": each must be 0..100");
+}
+
 void read_tracker(Section& s, slam::TrackerParams& c) {
   s.field("iterations_per_level", c.iterations_per_level)
       .field("max_correspondence_distance_m", c.max_correspondence_distance_m)
@@ -100,8 +106,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("reduction_workgroups", c.reduction_workgroups)
       .field("converged_translation_m", c.converged_translation_m)
       .field("converged_rotation_rad", c.converged_rotation_rad);
-  for (int n : c.iterations_per_level)
-    if (n < 0 || n > 100) throw Error(s.where() + ".iterations_per_level: each must be 0..100");
+  require_iteration_counts(c.iterations_per_level, s.where() + ".iterations_per_level");
 }
 
 void read_fusion(Section& s, slam::FusionParams& c) {
@@ -164,8 +169,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("object_min_inlier_ratio", c.object_min_inlier_ratio)
       .field("object_outline_photometric", c.object_outline_photometric)
       .field("object_iterations_per_level", c.object_iterations_per_level);
-  for (int n : c.object_iterations_per_level)
-    if (n < 0 || n > 100) throw Error(s.where() + ".object_iterations_per_level: each must be 0..100");
+  require_iteration_counts(c.object_iterations_per_level, s.where() + ".object_iterations_per_level");
   const std::string& where = s.where();
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
     throw Error(where + ".spawn_min_area_fraction: must be in (0, 1)");

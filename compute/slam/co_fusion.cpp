@@ -25,6 +25,10 @@ constexpr int kSlots = 32;        // the label masks are 32-bit
 // segmentation removed): nobody fuses them, but the background still tracks with them, so that a
 // burst of outliers (fast camera motion) cannot starve the camera's tracking.
 constexpr uint8_t kUnclaimedSlot = kSlots - 1;
+// Model::slot of a model without a label slot: inactive, or merged away / deleted (pruned from the
+// list after the lifecycle step).
+constexpr int kInactiveSlot = -1;
+constexpr int kRemovedSlot = -2;
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 double rotation_deg(const Eigen::Isometry3d& T) { return rotation_angle_rad(T) * 180.0 / M_PI; }
@@ -88,7 +92,7 @@ struct CoFusion::Model {
   }
 
   int id;
-  int slot;  // label slot while active, -1 while inactive, -2 once merged away or deleted (pruned after the lifecycle step)
+  int slot;  // label slot while active, else kInactiveSlot or kRemovedSlot
   ModelState state = ModelState::kActive;
   gpu::Stream stream;
   SurfelModel surfels;
@@ -134,12 +138,12 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
       motion_(ctx),
       segmenter_(params.segmentation),
       live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "live")) {
-  if (int(params.slam.tracker.iterations_per_level.size()) < params.slam.preprocess.pyramid_levels)
-    throw Error("tracker needs iterations for each of the " + std::to_string(params.slam.preprocess.pyramid_levels) +
-                " pyramid levels");
-  if (int(params.lifecycle.object_iterations_per_level.size()) < params.slam.preprocess.pyramid_levels)
-    throw Error("lifecycle.object_iterations_per_level needs iterations for each of the " +
-                std::to_string(params.slam.preprocess.pyramid_levels) + " pyramid levels");
+  for (const auto& [counts, name] : {std::pair{&params.slam.tracker.iterations_per_level, "tracker"},
+                                      std::pair{&params.lifecycle.object_iterations_per_level,
+                                                "lifecycle.object_iterations_per_level"}})
+    if (int(counts->size()) < params.slam.preprocess.pyramid_levels)
+      throw Error(std::string(name) + " needs iterations for each of the " +
+                  std::to_string(params.slam.preprocess.pyramid_levels) + " pyramid levels");
   if (params.lifecycle.max_active_models < 1 || params.lifecycle.max_active_models > kSlots - 1)
     throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kSlots - 1) + "]");
   preprocess_ = params.slam.effective_preprocess();
@@ -647,7 +651,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       for (const ModelState state : {ModelState::kActive, ModelState::kInactive}) {
         for (auto& m : models_) {
           // A model merged away this frame is inactive until the list is pruned: not a candidate.
-          if (m->state != state || m->id == 0 || m->slot == -2 || (state == ModelState::kActive && !lost(*m))) continue;
+          if (m->state != state || m->id == 0 || m->slot == kRemovedSlot || (state == ModelState::kActive && !lost(*m))) continue;
           if (try_reactivate(*m, sp.slot, centroid)) {
             reactivated = m.get();
             was_active = state == ModelState::kActive;
@@ -687,7 +691,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
     }
   }
   // Deleted models leave the list.
-  std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == -2; });
+  std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == kRemovedSlot; });
   return slots;
 }
 
@@ -744,7 +748,7 @@ void CoFusion::merge_into(Model& keep, Model& gone, CoFusionFrame& out, const st
   out.events.push_back("frame " + std::to_string(frame_) + ": merged model " + std::to_string(gone.id) + " into " +
                        std::to_string(keep.id) + " (" + why + ")");
   gone.state = ModelState::kInactive;
-  gone.slot = -2;  // deleted at the end of the lifecycle step
+  gone.slot = kRemovedSlot;
 }
 
 void CoFusion::retire(Model& m, CoFusionFrame& out) {
@@ -755,7 +759,7 @@ void CoFusion::retire(Model& m, CoFusionFrame& out) {
   }));
   m.state = ModelState::kInactive;
   const bool keep = stable >= params_.lifecycle.min_stable_surfels;
-  m.slot = keep ? -1 : -2;
+  m.slot = keep ? kInactiveSlot : kRemovedSlot;
   out.events.push_back("frame " + std::to_string(frame_) + ": model " + std::to_string(m.id) + " left the view (" +
                        std::to_string(stable) + " stable surfels): " + (keep ? "inactive" : "deleted"));
 }

@@ -203,8 +203,6 @@ TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   expect_issue_bounds(seq, run(seq));
 }
 
-// Five objects picked up one after another, each next to others already moving the same way: the
-// benchmark's 6-model scene under the same bounds.
 // The paper's handover: arm A carries the cube in, arm B takes it, arm A leaves, arm B puts the
 // cube down and leaves. Arm A and the cube move as one and are one model until the handover; then
 // arm A is split off as its own model, and arm B, found while it reached for the cube, is not
@@ -217,6 +215,8 @@ TEST_F(CoFusionScenes, HandoverSplitsTheArmsFromTheCubeSlow) {
   for (const auto& e : r.events) EXPECT_EQ(e.find("merged"), std::string::npos) << e;
 }
 
+// Five objects picked up one after another, each next to others already moving the same way: the
+// benchmark's 6-model scene under the same bounds.
 TEST_F(CoFusionScenes, FiveObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("five_objects"));
   expect_issue_bounds(seq, run(seq));
