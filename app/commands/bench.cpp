@@ -28,7 +28,40 @@ struct BenchOptions {
   // the number of active models.
   std::vector<std::string> model_inputs = {"synthetic:static_room", "synthetic:two_objects", "synthetic:five_objects"};
   bool models = true;
+  // GPU time per kernel (timestamp queries) beside the pipeline and multi-object tables.
+  bool kernel_profile = false;
 };
+
+// Per-kernel GPU time summed over frames (see gpu/kernel_profile.h).
+struct KernelTimes {
+  std::map<std::string, gpu::KernelProfile::Entry> entries;
+  size_t frames = 0;
+  void add_frame(const std::map<std::string, gpu::KernelProfile::Entry>& frame) {
+    for (const auto& [key, e] : frame) {
+      entries[key].total_ms += e.total_ms;
+      entries[key].calls += e.calls;
+    }
+    ++frames;
+  }
+};
+
+// Kernels by GPU time per frame, largest first, and their sum (on lavapipe, which runs one
+// dispatch at a time, the sum is the frame's GPU-busy time).
+void print_kernel_table(const KernelTimes& k) {
+  if (k.frames == 0 || k.entries.empty()) return;
+  std::vector<std::pair<std::string, gpu::KernelProfile::Entry>> rows(k.entries.begin(), k.entries.end());
+  std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.second.total_ms > b.second.total_ms; });
+  const double n = double(k.frames);
+  std::printf("GPU time per kernel (timestamp queries), per frame over %zu frames\n", k.frames);
+  std::printf("%-50s %12s %10s %10s\n", "stream group: kernel", "calls/frame", "ms/call", "ms/frame");
+  double sum = 0;
+  for (const auto& [key, e] : rows) {
+    std::printf("%-50s %12.1f %10.3f %10.3f\n", key.c_str(), double(e.calls) / n, e.total_ms / double(e.calls),
+                e.total_ms / n);
+    sum += e.total_ms;
+  }
+  std::printf("%-50s %12s %10s %10.3f\n", "all kernels", "", "", sum / n);
+}
 
 // Halves a frame (and its intrinsics) for the 320x240 figures: depth by nearest neighbour, so
 // no depths are mixed across edges; colour by area averaging.
@@ -57,12 +90,16 @@ void bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const s
   const Intrinsics k = frames[0].intrinsics;
   slam::DenseSlam slam(ctx, k, slam::SlamParams{});
   StageTimes times;
+  KernelTimes kernel_times;
   const size_t skip = 2;
   for (size_t i = 0; i < frames.size(); ++i) {
     const auto start = std::chrono::steady_clock::now();
     const auto r = slam.process(frames[i].depth_m.ptr<float>(), frames[i].rgb.data);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    // A frame's work is finished when process() returns; its timings are collected with it.
+    const auto kernels = ctx.kernel_profile() ? ctx.kernel_profile()->take() : decltype(kernel_times.entries){};
     if (i < skip) continue;
+    if (ctx.kernel_profile()) kernel_times.add_frame(kernels);
     for (const auto& [stage, stage_ms] : r.stage_ms) times.add(stage, stage_ms);
     times.add("whole frame", ms);
   }
@@ -73,6 +110,7 @@ void bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const s
   for (double ms : times.samples("whole frame")) total += ms;
   std::printf("frames per second: %.2f (median frame), %.2f (mean frame)\n", 1000.0 / times.median("whole frame"),
               1000.0 * double(times.samples("whole frame").size()) / total);
+  print_kernel_table(kernel_times);
 }
 
 // Co-Fusion over a scene (motion segmentation, lifecycle, one model per moving object): every
@@ -93,13 +131,16 @@ void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
   const Intrinsics k = frames[0].intrinsics;
   slam::CoFusion slam(ctx, k, PipelineConfig{}.cofusion());
   std::map<size_t, StageTimes> by_models;
+  std::map<size_t, KernelTimes> kernels_by_models;
   for (size_t i = 0; i < frames.size(); ++i) {
     const auto start = std::chrono::steady_clock::now();
     const auto r = slam.process(frames[i].depth_m.ptr<float>(), frames[i].rgb.data);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const auto kernels = ctx.kernel_profile() ? ctx.kernel_profile()->take() : decltype(KernelTimes::entries){};
     if (i < 2) continue;  // start-up: pipeline compilation, first fusion
     size_t tracked = 0;
     for (const auto& m : r.active) tracked += m.tracked;
+    if (ctx.kernel_profile()) kernels_by_models[tracked].add_frame(kernels);
     StageTimes& times = by_models[tracked];
     for (const auto& [stage, stage_ms] : r.stage_ms) times.add(stage, stage_ms);
     times.add("  superpixels (CPU job)", r.superpixels_ms);
@@ -113,6 +154,7 @@ void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
     std::printf("\n%zu active model%s, %zu frames: %.2f frames per second (median frame)\n", models,
                 models == 1 ? "" : "s", times.samples("whole frame").size(), 1000.0 / times.median("whole frame"));
     print_table(times);
+    if (auto it = kernels_by_models.find(models); it != kernels_by_models.end()) print_kernel_table(it->second);
   }
 }
 
@@ -196,6 +238,8 @@ void add_bench(CLI::App& app) {
   cmd->add_flag("!--no-pipeline", options->pipeline, "Skip the whole-pipeline figures");
   cmd->add_option("--models-input", options->model_inputs, "Scenes for the multi-object figures (SOURCEs as for run)");
   cmd->add_flag("!--no-models", options->models, "Skip the multi-object figures");
+  cmd->add_flag("--kernel-profile", options->kernel_profile,
+                "Also print GPU time per kernel for the pipeline and multi-object figures (timestamp queries)");
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
     gpu::Context ctx(options->gpu.context_options());
@@ -209,6 +253,8 @@ void add_bench(CLI::App& app) {
       std::printf("preprocessing throughput: %.1f frames per second (upload + whole-frame preprocessing)\n",
                   1000.0 / frame_ms);
     }
+    // Attached after the per-kernel figures: their wall-clock timings should not include queries.
+    if (options->kernel_profile) ctx.set_kernel_profile(std::make_shared<gpu::KernelProfile>());
     if (options->pipeline) {
       SourceOptions source_options;
       source_options.max_frames = options->frames;

@@ -237,6 +237,7 @@ Context::Context(const ContextOptions& options) : options_(options) {
   queue_family_ = *pick_compute_family(physical_device_);
   const auto families = physical_device_.getQueueFamilyProperties();
   const uint32_t queue_count = std::min<uint32_t>(families[queue_family_].queueCount, 8);
+  features_.timestamp_valid_bits = families[queue_family_].timestampValidBits;
   std::vector<float> priorities(queue_count, 1.0f);
   vk::DeviceQueueCreateInfo queue_info{.queueFamilyIndex = queue_family_,
                                        .queueCount = queue_count,
@@ -326,6 +327,12 @@ VKAPI_ATTR VkBool32 VKAPI_CALL Context::debug_callback(VkDebugUtilsMessageSeveri
     std::fprintf(stderr, "[vulkan validation warning] %s\n", message.c_str());
   }
   return VK_FALSE;
+}
+
+void Context::set_kernel_profile(std::shared_ptr<KernelProfile> profile) {
+  if (profile && (features_.timestamp_valid_bits == 0 || features_.timestamp_period_ns <= 0.0f))
+    throw Error("kernel profile: the compute queues of '" + info_.name + "' cannot write timestamps");
+  kernel_profile_ = std::move(profile);
 }
 
 }  // namespace cofusion::gpu

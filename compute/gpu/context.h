@@ -14,6 +14,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "gpu/kernel_profile.h"
 #include "gpu/vk.h"
 
 namespace cofusion::gpu {
@@ -61,6 +62,7 @@ struct DeviceFeatures {
   bool device_local_memory_is_host_visible = false;
   uint32_t max_compute_workgroup_invocations = 0;
   float timestamp_period_ns = 0;
+  uint32_t timestamp_valid_bits = 0;  // of the compute queue family; 0: no timestamps
 };
 
 // One device queue. Submissions from several threads to the same queue are serialised by `mutex`.
@@ -109,6 +111,12 @@ class Context {
   }
   void set_name_raw(vk::ObjectType type, uint64_t handle, const std::string& name) const;
 
+  // Per-kernel GPU timing (see kernel_profile.h): streams record timestamps around every
+  // dispatch while a profile is attached; nullptr detaches. Throws where the compute queues
+  // cannot write timestamps. Attach before recording work; lists begun earlier are not timed.
+  void set_kernel_profile(std::shared_ptr<KernelProfile> profile);
+  KernelProfile* kernel_profile() const { return kernel_profile_.get(); }
+
   // Number of validation messages of error severity seen so far.
   size_t validation_error_count() const { return validation_errors_.load(); }
 
@@ -130,6 +138,7 @@ class Context {
   uint32_t queue_family_ = 0;
   std::vector<std::unique_ptr<Queue>> queues_;
   std::atomic<size_t> validation_errors_{0};
+  std::shared_ptr<KernelProfile> kernel_profile_;
 };
 
 }  // namespace cofusion::gpu

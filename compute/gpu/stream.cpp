@@ -1,5 +1,6 @@
 #include "gpu/stream.h"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 
@@ -31,7 +32,28 @@ void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_lis
   cmd_.pushDescriptorSetKHR(vk::PipelineBindPoint::eCompute, pipeline.layout(), 0, writes);
   if (push_bytes)
     cmd_.getDispatcher()->vkCmdPushConstants(*cmd_, pipeline.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, push_bytes, push);
+  if (!timing_) {
+    cmd_.dispatch(groups_x, groups_y, groups_z);
+    return;
+  }
+  const uint32_t query = 2 * static_cast<uint32_t>(timing_->names.size()) % Timing::kQueriesPerPool;
+  if (query == 0) {
+    timing_->pools.emplace_back(timing_->ctx->device(),
+                                vk::QueryPoolCreateInfo{.queryType = vk::QueryType::eTimestamp,
+                                                        .queryCount = Timing::kQueriesPerPool});
+    cmd_.resetQueryPool(*timing_->pools.back(), 0, Timing::kQueriesPerPool);
+  }
+  // Both stamps after all earlier commands: the interval is this dispatch (and any work still
+  // overlapping it), not the wait for earlier work to start.
+  const vk::QueryPool pool = *timing_->pools.back();
+  cmd_.writeTimestamp2(vk::PipelineStageFlagBits2::eAllCommands, pool, query);
   cmd_.dispatch(groups_x, groups_y, groups_z);
+  cmd_.writeTimestamp2(vk::PipelineStageFlagBits2::eAllCommands, pool, query + 1);
+  timing_->names.push_back(timing_->label.empty() ? pipeline.name() : pipeline.name() + " " + timing_->label);
+}
+
+void CommandList::set_profile_label(const std::string& label) {
+  if (timing_) timing_->label = label;
 }
 
 void CommandList::barrier() {
@@ -70,7 +92,7 @@ void CommandList::fill(const BufferPtr& dst, uint32_t value, size_t offset, size
 }
 
 Stream::Stream(Context& ctx, uint32_t worker, const std::string& name)
-    : ctx_(ctx), queue_(ctx.queue_for_worker(worker)), name_(name) {
+    : ctx_(ctx), queue_(ctx.queue_for_worker(worker)), name_(name), profile_group_(name) {
   pool_ = vk::raii::CommandPool(ctx.device(), vk::CommandPoolCreateInfo{
                                                   .flags = vk::CommandPoolCreateFlagBits::eResetCommandBuffer,
                                                   .queueFamilyIndex = queue_.family});
@@ -103,7 +125,12 @@ CommandList Stream::begin() {
     ctx_.set_name(cmd, name_ + " commands");
   }
   cmd.begin(vk::CommandBufferBeginInfo{.flags = vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
-  return CommandList(std::move(cmd));
+  std::unique_ptr<CommandList::Timing> timing;
+  if (ctx_.kernel_profile()) {
+    timing = std::make_unique<CommandList::Timing>();
+    timing->ctx = &ctx_;
+  }
+  return CommandList(std::move(cmd), std::move(timing));
 }
 
 TimelinePoint Stream::submit(CommandList&& list, std::span<const TimelinePoint> waits) {
@@ -133,7 +160,7 @@ TimelinePoint Stream::submit(CommandList&& list, std::span<const TimelinePoint> 
     queue_.handle.submit2(submit);
   }
   next_value_ = value;
-  in_flight_.push_back({value, std::move(list.cmd_), std::move(list.held_)});
+  in_flight_.push_back({value, std::move(list.cmd_), std::move(list.held_), std::move(list.timing_)});
   return {*timeline_, value};
 }
 
@@ -153,6 +180,24 @@ void Stream::wait_idle() {
 void Stream::collect_finished() {
   const uint64_t done = completed_value();
   while (!in_flight_.empty() && in_flight_.front().value <= done) {
+    if (const auto& timing = in_flight_.front().timing; timing && !timing->names.empty()) {
+      if (KernelProfile* profile = ctx_.kernel_profile()) {
+        const double ms_per_tick = double(ctx_.features().timestamp_period_ns) * 1e-6;
+        const uint32_t bits = ctx_.features().timestamp_valid_bits;
+        const uint64_t mask = bits >= 64 ? ~uint64_t{0} : (uint64_t{1} << bits) - 1;  // counters wrap
+        for (size_t p = 0; p < timing->pools.size(); ++p) {
+          const size_t first = p * CommandList::Timing::kQueriesPerPool / 2;
+          const uint32_t count = 2 * static_cast<uint32_t>(std::min<size_t>(timing->names.size() - first,
+                                                                            CommandList::Timing::kQueriesPerPool / 2));
+          // The submission has finished, so the results are available.
+          const auto [result, ticks] = timing->pools[p].getResults<uint64_t>(
+              0, count, count * sizeof(uint64_t), sizeof(uint64_t), vk::QueryResultFlagBits::e64 | vk::QueryResultFlagBits::eWait);
+          if (result != vk::Result::eSuccess) continue;
+          for (uint32_t q = 0; q < count; q += 2)
+            profile->add(profile_group_ + ": " + timing->names[first + q / 2], double((ticks[q + 1] - ticks[q]) & mask) * ms_per_tick);
+        }
+      }
+    }
     recycled_.push_back(std::move(in_flight_.front().cmd));
     in_flight_.pop_front();  // releases the buffers the submission held
   }

@@ -54,13 +54,27 @@ class CommandList {
   void fill(const BufferPtr& dst, uint32_t value, size_t offset, size_t bytes);
   // Keeps `object` alive until this list has finished executing.
   void hold(std::shared_ptr<const void> object) { held_.push_back(std::move(object)); }
+  // Names the dispatches recorded from now on in the kernel profile ("icp_rgb_reduce 640x480");
+  // no effect unless the Context has a profile attached.
+  void set_profile_label(const std::string& label);
   vk::CommandBuffer handle() const { return *cmd_; }
+  // A profiled list allocates query pools of this many dispatches (two timestamps each) as needed.
+  static constexpr uint32_t kProfiledDispatchesPerPool = 128;
 
  private:
   friend class Stream;
-  explicit CommandList(vk::raii::CommandBuffer cmd) : cmd_(std::move(cmd)) {}
+  struct Timing {
+    static constexpr uint32_t kQueriesPerPool = 2 * kProfiledDispatchesPerPool;
+    const Context* ctx = nullptr;
+    std::vector<vk::raii::QueryPool> pools;
+    std::vector<std::string> names;  // one per timed dispatch
+    std::string label;
+  };
+  CommandList(vk::raii::CommandBuffer cmd, std::unique_ptr<Timing> timing)
+      : cmd_(std::move(cmd)), timing_(std::move(timing)) {}
   vk::raii::CommandBuffer cmd_;
   std::vector<std::shared_ptr<const void>> held_;
+  std::unique_ptr<Timing> timing_;
 };
 
 class Stream {
@@ -99,18 +113,23 @@ class Stream {
 
   Context& context() const { return ctx_; }
   const std::string& name() const { return name_; }
+  // The group this stream's dispatches are filed under in the kernel profile (default: its name),
+  // e.g. "background" or "objects".
+  void set_profile_group(const std::string& group) { profile_group_ = group; }
 
  private:
   struct InFlight {
     uint64_t value;
     vk::raii::CommandBuffer cmd;
     std::vector<std::shared_ptr<const void>> held;
+    std::unique_ptr<CommandList::Timing> timing;
   };
   void collect_finished();
 
   Context& ctx_;
   Queue& queue_;
   std::string name_;
+  std::string profile_group_;
   vk::raii::CommandPool pool_{nullptr};
   vk::raii::Semaphore timeline_{nullptr};
   uint64_t next_value_ = 0;

@@ -80,6 +80,7 @@ struct CoFusion::Model {
         last_frame(frame) {
     residuals = gpu::Buffer::create(ctx, size_t(intrinsics.width) * intrinsics.height * 16,
                                     "model " + std::to_string(id_) + " motion residuals");
+    stream.set_profile_group(id_ == 0 ? "background" : "objects");
   }
   static TrackerParams tracker_params(const CoFusionParams& p, int id) {
     TrackerParams t = p.slam.tracker;
@@ -146,6 +147,7 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
                   std::to_string(params.slam.preprocess.pyramid_levels) + " pyramid levels");
   if (params.lifecycle.max_active_models < 1 || params.lifecycle.max_active_models > kSlots - 1)
     throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kSlots - 1) + "]");
+  main_stream_.set_profile_group("frame");
   preprocess_ = params.slam.effective_preprocess();
   // Object trackers differ from the background's (the outline term reads the live gradients).
   preprocess_.live_gradients = preprocess_.live_gradients || Model::tracker_params(params, 1).needs_live_gradients();

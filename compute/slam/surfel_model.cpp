@@ -134,7 +134,9 @@ void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, c
     const size_t row_bytes = size_t(k.width) * 8;
     cmd.fill(out.depth_index, 0xFFFFFFFFu, size_t(area.y0) * row_bytes, size_t(area.height()) * row_bytes);
     cmd.barrier();
+    cmd.set_profile_label("for prediction");
     splat(cmd, model.surfels(), out.depth_index, sp);
+    cmd.set_profile_label("");
     cmd.barrier();
   }
   if (cover.empty()) return;
@@ -288,7 +290,9 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
     cmd.fill(index_map, 0xFFFFFFFFu, size_t(area.y0) * size_t(S) * row_bytes, size_t(area.height()) * size_t(S) * row_bytes);
     cmd.fill(model.claim_, 0xFFFFFFFFu, 0, size_t(model.count_) * 4);
     cmd.barrier();
+    cmd.set_profile_label("for fusion");
     splat(cmd, model.surfels_, index_map, sp);
+    cmd.set_profile_label("");
     cmd.barrier();
     const FuseBuffers b{model.surfels_, index_map, l0.vertex, l0.normal, live.rgb,
                         model.assoc_,   model.claim_, model.counter_, label_buffer};

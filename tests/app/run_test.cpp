@@ -229,6 +229,17 @@ TEST(RunCommand, ViewerWindowRunsUnderXvfbAndTakesAScreenshot) {
   expect_screenshot(out / "view.png");
 }
 
+TEST(BenchCommand, KernelProfileListsEveryStreamGroupsKernels) {
+  const Result r = run_cofusion(
+      "bench --no-kernels --no-pipeline --models-input synthetic:two_objects --frames 5 --kernel-profile");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("GPU time per kernel (timestamp queries), per frame over 3 frames"));
+  for (const char* row : {"frame: bilateral_depth ", "background: splat_surfels for prediction ",
+                          "background: splat_surfels for fusion ", "background: fuse_associate ",
+                          "background: icp_rgb_reduce 640x480 ", "background: icp_rgb_reduce 80x60 ", "all kernels "})
+    EXPECT_THAT(r.output, HasSubstr(row)) << r.output;
+}
+
 TEST(RunCommand, EverySubcommandHasHelp) {
   for (const char* sub : {"run", "bench", "eval", "generate", "convert"}) {
     const Result r = run_cofusion(std::string(sub) + " --help");

@@ -82,6 +82,44 @@ TEST_F(ComputeCore, DispatchWritesEveryElementForEdgeSizes) {
   }
 }
 
+TEST_F(ComputeCore, KernelProfileTimesEveryDispatchUnderItsGroupAndLabel) {
+  gpu::Context c(validated_options());
+  auto profile = std::make_shared<gpu::KernelProfile>();
+  if (c.features().timestamp_valid_bits == 0) {
+    EXPECT_THROW(c.set_kernel_profile(profile), Error);
+    return;
+  }
+  c.set_kernel_profile(profile);
+  gpu::ComputePipeline p(c, "test_fill", shaders::test_fill_comp(), 1, sizeof(gpu_layout::TestFillParams));
+  gpu::Stream s(c, 0, "profiled stream");
+  s.set_profile_group("group");
+  const uint32_t count = 640 * 480;
+  auto b = gpu::Buffer::create(c, count * 4, "fill target");
+  // More dispatches than one query pool holds, then a labelled one.
+  const uint32_t unlabelled = 3 * gpu::CommandList::kProfiledDispatchesPerPool / 2;
+  s.run([&](gpu::CommandList& cmd) {
+    for (uint32_t i = 0; i < unlabelled; ++i) {
+      cmd.dispatch(p, {b}, gpu_layout::TestFillParams{count, i}, gpu::group_count(count, 64));
+      cmd.barrier();
+    }
+    cmd.set_profile_label("labelled");
+    cmd.dispatch(p, {b}, gpu_layout::TestFillParams{count, 5}, gpu::group_count(count, 64));
+  });
+  const auto entries = profile->take();
+  ASSERT_EQ(entries.size(), 2u);
+  EXPECT_EQ(entries.at("group: test_fill").calls, unlabelled);
+  EXPECT_GT(entries.at("group: test_fill").total_ms, 0.0);
+  EXPECT_EQ(entries.at("group: test_fill labelled").calls, 1u);
+  EXPECT_GT(entries.at("group: test_fill labelled").total_ms, 0.0);
+  EXPECT_TRUE(profile->take().empty());
+  const auto out = s.download<uint32_t>(b, count);
+  EXPECT_EQ(out[count - 1], count - 1 + 5);  // timing does not change the work
+
+  c.set_kernel_profile(nullptr);
+  s.run([&](gpu::CommandList& cmd) { cmd.dispatch(p, {b}, gpu_layout::TestFillParams{count, 0}, gpu::group_count(count, 64)); });
+  EXPECT_TRUE(profile->take().empty());
+}
+
 TEST_F(ComputeCore, ZeroSizedDispatchIsSkipped) {
   const auto p = fill_pipeline();
   auto b = gpu::Buffer::create(ctx(), 0, "empty");
