@@ -7,23 +7,24 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
+#include "shared/texel_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = FUSE_BINDING_SURFELS) readonly buffer Surfels { Surfel surfels[]; };
-layout(std430, binding = FUSE_BINDING_INDEX_MAP) readonly buffer IndexMap { uint64_t index_map[]; };
-layout(std430, binding = FUSE_BINDING_VERTEX) readonly buffer Vertex { vec4 vertex[]; };
-layout(std430, binding = FUSE_BINDING_NORMAL) readonly buffer Normal { vec4 normal[]; };
+layout(binding = FUSE_BINDING_SURFELS) uniform usamplerBuffer surfels;  // texel buffer
+layout(binding = FUSE_BINDING_INDEX_MAP) uniform usamplerBuffer index_map;  // texel view of uint64 keys
+layout(binding = FUSE_BINDING_VERTEX) uniform usamplerBuffer vertex;  // texel view of vec4
+layout(binding = FUSE_BINDING_NORMAL) uniform usamplerBuffer normal;  // texel view of vec4
 layout(std430, binding = FUSE_BINDING_RGB) readonly buffer Rgb { uint rgb[]; };
 layout(std430, binding = FUSE_BINDING_ASSOC) writeonly buffer Assoc { uint assoc[]; };
 layout(std430, binding = FUSE_BINDING_CLAIM) buffer Claim { uint claim[]; };
 layout(std430, binding = FUSE_BINDING_COUNTER) buffer Counter { uint counter[]; };
-layout(std430, binding = FUSE_BINDING_LABELS) readonly buffer Labels { uint labels[]; };
+layout(binding = FUSE_BINDING_LABELS) uniform usamplerBuffer labels;  // texel view of uint
 layout(push_constant) uniform Push { FuseParams p; };
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
   if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
-  vec4 v = vertex[i], n = normal[i];
-  if (v.w == 0.0 || n.w == 0.0 || (p.use_labels != 0u && labels[i] != p.label)) {
+  vec4 v = texel_vec4(vertex, i), n = texel_vec4(normal, i);
+  if (v.w == 0.0 || n.w == 0.0 || (p.use_labels != 0u && texel_uint(labels, i) != p.label)) {
     assoc[i] = FUSE_SKIP_PIXEL;
     return;
   }
@@ -34,19 +35,19 @@ void main() {
   bool depth_agrees = false;
   for (uint sy = 0u; sy < S; ++sy) {
     for (uint sx = 0u; sx < S; ++sx) {
-      uint64_t key = index_map[(px.y * S + sy) * grid_width + px.x * S + sx];
+      uint64_t key = packUint2x32(texel_uint2(index_map, (px.y * S + sy) * grid_width + px.x * S + sx));
       if (key == ~uint64_t(0)) continue;
       uint si = uint(key & 0xFFFFFFFFul);
-      Surfel s = surfels[si];
-      vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
-      vec3 nc = rigid_rotate(p.T_camera_model, vec3(s.nx, s.ny, s.nz));
+      const vec4 pos_conf = surfel_position_confidence(surfels, si);
+      vec3 pc = rigid_apply(p.T_camera_model, pos_conf.xyz);
+      vec3 nc = rigid_rotate(p.T_camera_model, surfel_normal_radius(surfels, si).xyz);
       if (abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005) continue;
       depth_agrees = true;
       if (dot(nc, n.xyz) < p.min_normal_dot) continue;
       float ray_dist = length(cross(pc, ray));
-      if (ray_dist < best_ray_dist || (ray_dist == best_ray_dist && s.confidence > best_confidence)) {
+      if (ray_dist < best_ray_dist || (ray_dist == best_ray_dist && pos_conf.w > best_confidence)) {
         best = si;
-        best_confidence = s.confidence;
+        best_confidence = pos_conf.w;
         best_ray_dist = ray_dist;
       }
     }

@@ -6,22 +6,24 @@
 // Reduction: each invocation accumulates its pixels (grid-stride loop) in registers, then one
 // subgroupAdd per value and one shared-memory step across the subgroups of the workgroup, behind
 // a single barrier. On lavapipe this is about 10x faster than a shared-memory tree (one barrier
-// per halving). The host adds the workgroups' partials in double.
+// per halving). The host adds the workgroups' partials in double. The maps are read through
+// their texel views (shared/texel_access.glsl).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 layout(local_size_x = ICP_RGB_GROUP_SIZE) in;
-layout(std430, binding = ICP_RGB_BINDING_LIVE_VERTEX) readonly buffer LiveVertex { vec4 live_vertex[]; };
-layout(std430, binding = ICP_RGB_BINDING_LIVE_NORMAL) readonly buffer LiveNormal { vec4 live_normal[]; };
-layout(std430, binding = ICP_RGB_BINDING_LIVE_INTENSITY) readonly buffer LiveIntensity { float live_intensity[]; };
-layout(std430, binding = ICP_RGB_BINDING_REF_VERTEX) readonly buffer RefVertex { vec4 ref_vertex[]; };
-layout(std430, binding = ICP_RGB_BINDING_REF_NORMAL) readonly buffer RefNormal { vec4 ref_normal[]; };
-layout(std430, binding = ICP_RGB_BINDING_REF_INTENSITY) readonly buffer RefIntensity { float ref_intensity[]; };
-layout(std430, binding = ICP_RGB_BINDING_REF_GRADIENT) readonly buffer RefGradient { vec2 ref_gradient[]; };
+layout(binding = ICP_RGB_BINDING_LIVE_VERTEX) uniform usamplerBuffer live_vertex;  // texel view of vec4
+layout(binding = ICP_RGB_BINDING_LIVE_NORMAL) uniform usamplerBuffer live_normal;  // texel view of vec4
+layout(binding = ICP_RGB_BINDING_LIVE_INTENSITY) uniform usamplerBuffer live_intensity;  // texel view of float
+layout(binding = ICP_RGB_BINDING_REF_VERTEX) uniform usamplerBuffer ref_vertex;  // texel view of vec4
+layout(binding = ICP_RGB_BINDING_REF_NORMAL) uniform usamplerBuffer ref_normal;  // texel view of vec4
+layout(binding = ICP_RGB_BINDING_REF_INTENSITY) uniform usamplerBuffer ref_intensity;  // texel view of float
+layout(binding = ICP_RGB_BINDING_REF_GRADIENT) uniform usamplerBuffer ref_gradient;  // texel view of vec2
 layout(std430, binding = ICP_RGB_BINDING_PARTIALS) writeonly buffer Partials { float partials[]; };
-layout(std430, binding = ICP_RGB_BINDING_LIVE_GRADIENT) readonly buffer LiveGradient { vec2 live_gradient[]; };
-layout(std430, binding = ICP_RGB_BINDING_LIVE_DEPTH) readonly buffer LiveDepth { float live_depth[]; };
+layout(binding = ICP_RGB_BINDING_LIVE_GRADIENT) uniform usamplerBuffer live_gradient;  // texel view of vec2
+layout(binding = ICP_RGB_BINDING_LIVE_DEPTH) uniform usamplerBuffer live_depth;  // texel view of float
 layout(push_constant) uniform Push { IcpRgbReduceParams p; };
 
 // 16 vec4 per subgroup: 8 for the ICP term (its 29 values, then the valid live count), 8 for the
@@ -78,9 +80,9 @@ void main() {
   const uint stride = gl_NumWorkGroups.x * ICP_RGB_GROUP_SIZE;
   for (uint ri = gl_GlobalInvocationID.x; ri < n; ri += stride) {
     const uint i = (p.rect_y0 + ri / p.rect_width) * p.width + p.rect_x0 + ri % p.rect_width;  // live pixel
-    const vec4 v_live = live_vertex[i];
+    const vec4 v_live = texel_vec4(live_vertex, i);
     if (v_live.w <= 0.0) continue;
-    const vec4 n_live = live_normal[i];
+    const vec4 n_live = texel_vec4(live_normal, i);
     const bool normal_valid = n_live.w > 0.0;
     if (normal_valid) icp.s7.y += 1.0;  // ICP_RGB_OFFSET_VALID
     const vec3 q = R * v_live.xyz + t;  // live point in the reference frame
@@ -90,12 +92,12 @@ void main() {
     if (!(x >= -0.5 && y >= -0.5 && x < float(w) - 0.5 && y < float(h) - 0.5)) continue;
     const int xn = int(floor(x + 0.5)), yn = int(floor(y + 0.5));
     const uint j = uint(yn * w + xn);  // nearest reference pixel
-    const vec4 v_ref = ref_vertex[j];
+    const vec4 v_ref = texel_vec4(ref_vertex, j);
     if (v_ref.w <= 0.0) continue;
 
     // Point-to-plane ICP (eq. 2): r = n_ref . (q - v_ref), J = [n_ref, q x n_ref].
     if (normal_valid) {
-      const vec4 n_ref = ref_normal[j];
+      const vec4 n_ref = texel_vec4(ref_normal, j);
       const vec3 d = q - v_ref.xyz;
       if (n_ref.w > 0.0 && dot(d, d) <= max_d2 && dot(R * n_live.xyz, n_ref.xyz) >= p.min_normal_cos) {
         accumulate(icp, n_ref.xyz, cross(q, n_ref.xyz), dot(n_ref.xyz, d));
@@ -108,15 +110,16 @@ void main() {
         abs(q.z - v_ref.z) <= p.max_distance_m) {
       const int x0 = int(floor(x)), y0 = int(floor(y));
       const uint j00 = uint(y0 * w + x0), j10 = j00 + 1u, j01 = j00 + p.width, j11 = j01 + 1u;
-      if (ref_vertex[j00].w > 0.0 && ref_vertex[j10].w > 0.0 && ref_vertex[j01].w > 0.0 &&
-          ref_vertex[j11].w > 0.0) {
+      if (texel_vec4(ref_vertex, j00).w > 0.0 && texel_vec4(ref_vertex, j10).w > 0.0 &&
+          texel_vec4(ref_vertex, j01).w > 0.0 && texel_vec4(ref_vertex, j11).w > 0.0) {
         const vec4 wts = bilinear_weights(vec2(x - float(x0), y - float(y0)));
-        const float I = dot(wts, vec4(ref_intensity[j00], ref_intensity[j10], ref_intensity[j01], ref_intensity[j11]));
-        const float r = (I - live_intensity[i]) * (1.0 / 255.0);
+        const float I = dot(wts, vec4(texel_float(ref_intensity, j00), texel_float(ref_intensity, j10),
+                                      texel_float(ref_intensity, j01), texel_float(ref_intensity, j11)));
+        const float r = (I - texel_float(live_intensity, i)) * (1.0 / 255.0);
         if (abs(r) <= p.max_intensity_diff) {
-          vec2 g = (wts.x * ref_gradient[j00] + wts.y * ref_gradient[j10] + wts.z * ref_gradient[j01] +
-                    wts.w * ref_gradient[j11]) * (1.0 / 255.0);
-          if (p.esm_gradient != 0u) g = 0.5 * (g + live_gradient[i] * (1.0 / 255.0));
+          vec2 g = (wts.x * texel_vec2(ref_gradient, j00) + wts.y * texel_vec2(ref_gradient, j10) +
+                    wts.z * texel_vec2(ref_gradient, j01) + wts.w * texel_vec2(ref_gradient, j11)) * (1.0 / 255.0);
+          if (p.esm_gradient != 0u) g = 0.5 * (g + texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
           const float sw = huber_sqrt_weight(r);
           accumulate(rgb, sw * dI_dq, sw * cross(q, dI_dq), sw * r);
@@ -134,7 +137,7 @@ void main() {
     const vec3 t_inv = -(Rt * t);
     for (uint ri = gl_GlobalInvocationID.x; ri < n; ri += stride) {
       const uint j = (p.rect_y0 + ri / p.rect_width) * p.width + p.rect_x0 + ri % p.rect_width;  // reference pixel
-      const vec4 v_ref = ref_vertex[j];
+      const vec4 v_ref = texel_vec4(ref_vertex, j);
       if (v_ref.w <= 0.0) continue;
       const vec3 x_live = Rt * v_ref.xyz + t_inv;
       if (x_live.z <= 0.0) continue;
@@ -142,15 +145,16 @@ void main() {
       if (!(u >= 0.0 && v >= 0.0 && u < float(w - 1) && v < float(h - 1))) continue;
       const int u0 = int(floor(u)), v0 = int(floor(v));
       // Something nearer than the model point there (another object in front): no outline.
-      const float z_live = live_depth[uint(int(floor(v + 0.5)) * w + int(floor(u + 0.5)))];
+      const float z_live = texel_float(live_depth, uint(int(floor(v + 0.5)) * w + int(floor(u + 0.5))));
       if (z_live > 0.0 && z_live < x_live.z - p.outline_occlusion_margin_m) continue;
       const uint i00 = uint(v0 * w + u0), i10 = i00 + 1u, i01 = i00 + p.width, i11 = i01 + 1u;
       const vec4 wts = bilinear_weights(vec2(u - float(u0), v - float(v0)));
-      const float I = dot(wts, vec4(live_intensity[i00], live_intensity[i10], live_intensity[i01], live_intensity[i11]));
-      const float r = (I - ref_intensity[j]) * (1.0 / 255.0);
+      const float I = dot(wts, vec4(texel_float(live_intensity, i00), texel_float(live_intensity, i10),
+                                    texel_float(live_intensity, i01), texel_float(live_intensity, i11)));
+      const float r = (I - texel_float(ref_intensity, j)) * (1.0 / 255.0);
       if (abs(r) > p.max_intensity_diff) continue;
-      const vec2 g = (wts.x * live_gradient[i00] + wts.y * live_gradient[i10] + wts.z * live_gradient[i01] +
-                      wts.w * live_gradient[i11]) * (1.0 / 255.0);
+      const vec2 g = (wts.x * texel_vec2(live_gradient, i00) + wts.y * texel_vec2(live_gradient, i10) +
+                      wts.z * texel_vec2(live_gradient, i01) + wts.w * texel_vec2(live_gradient, i11)) * (1.0 / 255.0);
       const vec3 G = R * intensity_jacobian(g, x_live);
       const float sw = huber_sqrt_weight(r);
       accumulate(rgb, -sw * G, -sw * cross(v_ref.xyz, G), sw * r);

@@ -6,9 +6,10 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
+#include "shared/texel_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = RESOLVE_BINDING_SURFELS) readonly buffer Surfels { Surfel surfels[]; };
-layout(std430, binding = RESOLVE_BINDING_DEPTH_INDEX) readonly buffer DepthIndex { uint64_t depth_index[]; };
+layout(binding = RESOLVE_BINDING_SURFELS) uniform usamplerBuffer surfels;  // texel view
+layout(binding = RESOLVE_BINDING_DEPTH_INDEX) uniform usamplerBuffer depth_index;  // texel view of uint64 keys
 layout(std430, binding = RESOLVE_BINDING_VERTEX) writeonly buffer Vertex { vec4 vertex[]; };
 layout(std430, binding = RESOLVE_BINDING_NORMAL) writeonly buffer Normal { vec4 normal[]; };
 layout(std430, binding = RESOLVE_BINDING_INTENSITY) writeonly buffer Intensity { float intensity[]; };
@@ -20,7 +21,7 @@ void main() {
   uint i = px.y * p.width + px.x;
   bool in_area = px.x >= p.area_x0 && px.x < p.area_x1 && px.y >= p.area_y0 && px.y < p.area_y1;
   // Outside the area the key is not read: only the area's rows were cleared before the splat.
-  uint64_t key = in_area ? depth_index[i] : ~uint64_t(0);
+  uint64_t key = in_area ? packUint2x32(texel_uint2(depth_index, i)) : ~uint64_t(0);
   if (key == ~uint64_t(0)) {
     vertex[i] = vec4(0.0);
     normal[i] = vec4(0.0);
@@ -29,7 +30,7 @@ void main() {
     return;
   }
   uint si = uint(key & 0xFFFFFFFFul);
-  Surfel s = surfels[si];
+  Surfel s = surfel_at(surfels, si);
   vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
   vec3 nc = rigid_rotate(p.T_camera_model, vec3(s.nx, s.ny, s.nz));
   vec3 ray = vec3((float(px.x) - p.cx) / p.fx, (float(px.y) - p.cy) / p.fy, 1.0);

@@ -9,18 +9,20 @@
 #extension GL_EXT_shader_atomic_int64 : require
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
+#include "shared/texel_access.glsl"
 layout(local_size_x = 128) in;
-layout(std430, binding = SPLAT_BINDING_SURFELS) readonly buffer Surfels { Surfel surfels[]; };
+layout(binding = SPLAT_BINDING_SURFELS) uniform usamplerBuffer surfels;  // texel view
 layout(std430, binding = SPLAT_BINDING_DEPTH_INDEX) buffer DepthIndex { uint64_t depth_index[]; };
 layout(push_constant) uniform Push { SplatParams p; };
 void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= p.surfel_count) return;
-  Surfel s = surfels[i];
-  if (s.confidence < p.min_confidence && p.frame - s.created_frame >= p.recent_window_frames) return;
-  vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
+  const vec4 pos_conf = surfel_position_confidence(surfels, i);
+  if (pos_conf.w < p.min_confidence && p.frame - int(surfel_tail(surfels, i).y) >= p.recent_window_frames) return;
+  vec3 pc = rigid_apply(p.T_camera_model, pos_conf.xyz);
   if (pc.z <= 1e-3) return;
-  vec3 nc = rigid_rotate(p.T_camera_model, vec3(s.nx, s.ny, s.nz));
+  const vec4 normal_radius = surfel_normal_radius(surfels, i);
+  vec3 nc = rigid_rotate(p.T_camera_model, normal_radius.xyz);
   if (dot(nc, pc) > 0.0) return;  // seen from behind
   float scale = float(p.grid_scale);
   // Pixel x of the full-resolution image covers [x - 0.5, x + 0.5); grid cell j covers [j, j+1).
@@ -28,7 +30,7 @@ void main() {
   float v = (p.fy * pc.y / pc.z + p.cy + 0.5) * scale;
   if (u < -1.0 || v < -1.0 || u > float(p.width) + 1.0 || v > float(p.height) + 1.0) return;
   int cx = int(floor(u)), cy = int(floor(v));
-  int f = min(int(p.footprint_px), int(s.radius_m * p.fx / pc.z * scale));
+  int f = min(int(p.footprint_px), int(normal_radius.w * p.fx / pc.z * scale));
   // Keyed by the surfel centre's depth, every cell of the footprint would go to the surfel nearest
   // the camera: on a slanted surface the predicted colours shift towards the near side by up to
   // the footprint, which biases photometric tracking (5 mm on a static synthetic table).
@@ -39,7 +41,7 @@ void main() {
   float plane_offset = dot(nc, pc);
   bool grazing = abs(plane_offset) <= 0.2 * length(pc);
   float denom0 = plane_offset / pc.z, a = nc.x / (scale * p.fx), b = nc.y / (scale * p.fy);
-  float max_dz = 2.0 * s.radius_m + 0.01;
+  float max_dz = 2.0 * normal_radius.w + 0.01;
   float penalty = p.offset_penalty_rel * pc.z / (scale * scale);
   for (int dy = -f; dy <= f; ++dy) {
     for (int dx = -f; dx <= f; ++dx) {

@@ -6,10 +6,11 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
+#include "shared/texel_access.glsl"
 layout(local_size_x = 128) in;
-layout(std430, binding = CLEANUP_BINDING_SRC) readonly buffer Src { Surfel src[]; };
+layout(binding = CLEANUP_BINDING_SRC) uniform usamplerBuffer src;  // texel view
 layout(std430, binding = CLEANUP_BINDING_DST) writeonly buffer Dst { Surfel dst[]; };
-layout(std430, binding = CLEANUP_BINDING_DEPTH) readonly buffer Depth { float depth_m[]; };
+layout(binding = CLEANUP_BINDING_DEPTH) uniform usamplerBuffer depth_m;  // texel view of float metres
 layout(std430, binding = CLEANUP_BINDING_COUNTER) buffer Counter { uint counter[]; };
 layout(push_constant) uniform Push { CleanupParams p; };
 void main() {
@@ -17,13 +18,13 @@ void main() {
   // dispatch from the host side.
   uint i = gl_GlobalInvocationID.x;
   if (i >= min(p.surfel_count, counter[0])) return;
-  Surfel s = src[i];
+  Surfel s = surfel_at(src, i);
   if (s.confidence < p.stable_confidence && p.frame - s.created_frame > p.unstable_window_frames) return;
   vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
   if (pc.z > 1e-3) {
     int x = int(round(p.fx * pc.x / pc.z + p.cx)), y = int(round(p.fy * pc.y / pc.z + p.cy));
     if (x >= 0 && y >= 0 && x < int(p.width) && y < int(p.height)) {
-      float d = depth_m[uint(y) * p.width + uint(x)];
+      float d = uintBitsToFloat(texel_uint(depth_m, uint(y) * p.width + uint(x)));
       if (d > 0.0 && pc.z < d - p.free_space_margin_rel * d) {
         s.confidence -= p.free_space_penalty;
         if (s.confidence <= 0.0) return;

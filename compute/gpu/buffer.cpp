@@ -18,9 +18,15 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
 
   const bool bda = features.buffer_device_address && usage == BufferUsage::Device;
   vk::BufferUsageFlags flags = vk::BufferUsageFlagBits::eTransferSrc | vk::BufferUsageFlagBits::eTransferDst;
+  // The Vulkan buffer is a whole number of 16-byte texels, so that the texel view reaches every
+  // byte of size_.
+  const size_t vk_size = (size_ + 15) / 16 * 16;
+  const uint64_t texels = vk_size / 16;
+  const bool texel_view = usage == BufferUsage::Device && texels > 0 && texels <= features.max_texel_buffer_elements;
   if (usage == BufferUsage::Device) flags |= vk::BufferUsageFlagBits::eStorageBuffer;
+  if (texel_view) flags |= vk::BufferUsageFlagBits::eUniformTexelBuffer;
   if (bda) flags |= vk::BufferUsageFlagBits::eShaderDeviceAddress;
-  buffer_ = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo{.size = size_, .usage = flags,
+  buffer_ = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo{.size = vk_size, .usage = flags,
                                                                 .sharingMode = vk::SharingMode::eExclusive});
   ctx.set_name(buffer_, name);
 
@@ -51,6 +57,19 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
   buffer_.bindMemory(*memory_, 0);
   if (map) mapped_ = memory_.mapMemory(0, VK_WHOLE_SIZE);
   if (bda) address_ = ctx.device().getBufferAddress(vk::BufferDeviceAddressInfo{.buffer = *buffer_});
+  if (texel_view) {
+    texel_view_ = vk::raii::BufferView(ctx.device(), vk::BufferViewCreateInfo{.buffer = *buffer_,
+                                                                              .format = vk::Format::eR32G32B32A32Uint,
+                                                                              .offset = 0,
+                                                                              .range = vk_size});
+    ctx.set_name(texel_view_, name + " texels");
+  }
+}
+
+vk::BufferView Buffer::texel_view() const {
+  if (!*texel_view_)
+    throw Error("buffer '" + name_ + "' (" + std::to_string(size_) + " bytes) cannot be read as a texel buffer");
+  return *texel_view_;
 }
 
 }  // namespace cofusion::gpu

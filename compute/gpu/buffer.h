@@ -36,6 +36,11 @@ class Buffer {
   void* mapped() const { return mapped_; }
   // GPU virtual address when the device supports buffer device addresses, 0 otherwise.
   uint64_t device_address() const { return address_; }
+  // The buffer as a uniform texel buffer of RGBA32UI texels (16 bytes each), for kernels that
+  // gather from it (ComputePipeline's texel bindings): lavapipe fetches texels with vector
+  // gathers, but loads storage buffers at scattered offsets lane by lane. Throws naming the
+  // buffer where it has none (staging buffers, less than 16 bytes, beyond the device's limit).
+  vk::BufferView texel_view() const;
 
  private:
   Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferUsage usage);
@@ -43,6 +48,7 @@ class Buffer {
   size_t size_ = 0;
   vk::raii::Buffer buffer_{nullptr};
   vk::raii::DeviceMemory memory_{nullptr};
+  vk::raii::BufferView texel_view_{nullptr};
   void* mapped_ = nullptr;
   uint64_t address_ = 0;
 };

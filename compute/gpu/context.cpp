@@ -213,6 +213,7 @@ Context::Context(const ContextOptions& options) : options_(options) {
   features_.max_storage_buffer_range = limits.maxStorageBufferRange;
   features_.max_compute_workgroup_invocations = limits.maxComputeWorkGroupInvocations;
   features_.timestamp_period_ns = limits.timestampPeriod;
+  features_.max_texel_buffer_elements = limits.maxTexelBufferElements;
   const auto maint3 = physical_device_.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceMaintenance3Properties>();
   features_.max_memory_allocation_size = maint3.get<vk::PhysicalDeviceMaintenance3Properties>().maxMemoryAllocationSize;
   const auto memory = physical_device_.getMemoryProperties();

@@ -63,6 +63,7 @@ struct DeviceFeatures {
   uint32_t max_compute_workgroup_invocations = 0;
   float timestamp_period_ns = 0;
   uint32_t timestamp_valid_bits = 0;  // of the compute queue family; 0: no timestamps
+  uint64_t max_texel_buffer_elements = 0;
 };
 
 // One device queue. Submissions from several threads to the same queue are serialised by `mutex`.

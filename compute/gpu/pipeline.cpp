@@ -5,13 +5,16 @@
 namespace cofusion::gpu {
 
 ComputePipeline::ComputePipeline(Context& ctx, const std::string& name, std::span<const uint32_t> spirv,
-                                 uint32_t binding_count, uint32_t push_constant_bytes)
-    : name_(name), binding_count_(binding_count), push_constant_bytes_(push_constant_bytes) {
+                                 uint32_t binding_count, uint32_t push_constant_bytes, uint32_t texel_bindings)
+    : name_(name), binding_count_(binding_count), push_constant_bytes_(push_constant_bytes), texel_bindings_(texel_bindings) {
   if (spirv.empty()) throw Error("compute pipeline '" + name + "': empty SPIR-V");
+  if (binding_count > 32 || (binding_count < 32 && (texel_bindings >> binding_count) != 0))
+    throw Error("compute pipeline '" + name + "': texel bindings beyond its " + std::to_string(binding_count) + " bindings");
   std::vector<vk::DescriptorSetLayoutBinding> bindings;
   for (uint32_t b = 0; b < binding_count; ++b)
     bindings.push_back({.binding = b,
-                        .descriptorType = vk::DescriptorType::eStorageBuffer,
+                        .descriptorType = is_texel_binding(b) ? vk::DescriptorType::eUniformTexelBuffer
+                                                              : vk::DescriptorType::eStorageBuffer,
                         .descriptorCount = 1,
                         .stageFlags = vk::ShaderStageFlagBits::eCompute});
   set_layout_ = vk::raii::DescriptorSetLayout(

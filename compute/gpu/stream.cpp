@@ -16,18 +16,28 @@ void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_lis
                 std::to_string(pipeline.push_constant_bytes()));
   if (groups_x == 0 || groups_y == 0 || groups_z == 0) return;
   std::vector<vk::DescriptorBufferInfo> infos;
+  std::vector<vk::BufferView> views;
   infos.reserve(buffers.size());
+  views.reserve(buffers.size());
   for (const auto& b : buffers) {
     if (!b) throw Error("dispatch of '" + pipeline.name() + "': null buffer");
     infos.push_back({.buffer = b->handle(), .offset = 0, .range = VK_WHOLE_SIZE});
+    views.push_back(pipeline.is_texel_binding(uint32_t(views.size())) ? b->texel_view() : vk::BufferView{});
     held_.push_back(b);
   }
   std::vector<vk::WriteDescriptorSet> writes;
-  for (uint32_t i = 0; i < infos.size(); ++i)
-    writes.push_back({.dstBinding = i,
-                      .descriptorCount = 1,
-                      .descriptorType = vk::DescriptorType::eStorageBuffer,
-                      .pBufferInfo = &infos[i]});
+  for (uint32_t i = 0; i < infos.size(); ++i) {
+    if (pipeline.is_texel_binding(i))
+      writes.push_back({.dstBinding = i,
+                        .descriptorCount = 1,
+                        .descriptorType = vk::DescriptorType::eUniformTexelBuffer,
+                        .pTexelBufferView = &views[i]});
+    else
+      writes.push_back({.dstBinding = i,
+                        .descriptorCount = 1,
+                        .descriptorType = vk::DescriptorType::eStorageBuffer,
+                        .pBufferInfo = &infos[i]});
+  }
   cmd_.bindPipeline(vk::PipelineBindPoint::eCompute, pipeline.handle());
   cmd_.pushDescriptorSetKHR(vk::PipelineBindPoint::eCompute, pipeline.layout(), 0, writes);
   if (push_bytes)

@@ -99,12 +99,16 @@ ModelPrediction ModelPrediction::allocate(gpu::Context& ctx, const Intrinsics& i
 // ---------------------------------------------------------------------------------------------
 SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor& preprocessor)
     : preprocessor_(preprocessor),
-      splat_(ctx, "splat_surfels", shaders::splat_surfels_comp(), 2, sizeof(L::SplatParams)),
-      resolve_(ctx, "splat_resolve", shaders::splat_resolve_comp(), 6, sizeof(L::ResolveParams)),
+      splat_(ctx, "splat_surfels", shaders::splat_surfels_comp(), 2, sizeof(L::SplatParams), 1u << SPLAT_BINDING_SURFELS),
+      resolve_(ctx, "splat_resolve", shaders::splat_resolve_comp(), 6, sizeof(L::ResolveParams),
+               (1u << RESOLVE_BINDING_SURFELS) | (1u << RESOLVE_BINDING_DEPTH_INDEX)),
       subsample_(ctx, "subsample_prediction", shaders::subsample_prediction_comp(), 6, sizeof(L::SubsampleParams)),
-      associate_(ctx, "fuse_associate", shaders::fuse_associate_comp(), 9, sizeof(L::FuseParams)),
+      associate_(ctx, "fuse_associate", shaders::fuse_associate_comp(), 9, sizeof(L::FuseParams),
+                 (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_INDEX_MAP) | (1u << FUSE_BINDING_VERTEX) |
+                     (1u << FUSE_BINDING_NORMAL) | (1u << FUSE_BINDING_LABELS)),
       update_(ctx, "fuse_update", shaders::fuse_update_comp(), 9, sizeof(L::FuseParams)),
-      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams)),
+      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams),
+               (1u << CLEANUP_BINDING_SRC) | (1u << CLEANUP_BINDING_DEPTH)),
       remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 5,
                      sizeof(L::RemoveRegionParams)) {}
 

@@ -65,7 +65,9 @@ void check_levels(const std::vector<kernels::FramePyramid::Level>& live,
 Tracker::Tracker(gpu::Context& ctx, TrackerParams params)
     : ctx_(ctx),
       params_(validated(std::move(params))),
-      reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 10, sizeof(L::IcpRgbReduceParams)) {
+      reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 10, sizeof(L::IcpRgbReduceParams),
+              // every binding but the partial sums is read through its texel view
+              ((1u << 10) - 1u) & ~(1u << ICP_RGB_BINDING_PARTIALS)) {
   const auto& f = ctx.features();
   if (!f.subgroup_arithmetic)
     throw Error("Tracker: device '" + ctx.info().name + "' lacks subgroup arithmetic in compute shaders");

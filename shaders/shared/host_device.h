@@ -254,6 +254,14 @@ struct TestFillParams {
   uint value_offset;  // dst[i] = i + value_offset
 };
 
+// ---- test_texel_read.comp: used by the compute-core tests only ------------------------------
+#define TEST_TEXEL_BINDING_SRC 0  // texel view
+#define TEST_TEXEL_BINDING_DST 1
+struct TestTexelParams {
+  uint words;  // 32-bit words to copy
+  uint mode;   // helper: 0 uint, 1 float, 2 vec2, 3 vec4, 4 64-bit, 5 Surfel
+};
+
 // ---- icp_rgb_reduce.comp: one Gauss-Newton iteration of frame-to-model tracking -------------
 // Each workgroup loops over the live pixels (grid-stride) and writes ICP_RGB_PARTIAL_STRIDE
 // floats of partial sums: the ICP term (point-to-plane, metres) at ICP_RGB_OFFSET_ICP, the count

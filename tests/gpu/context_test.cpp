@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <numeric>
+#include <random>
 #include <thread>
 
 #include "embedded_shaders.h"
@@ -118,6 +119,40 @@ TEST_F(ComputeCore, KernelProfileTimesEveryDispatchUnderItsGroupAndLabel) {
   c.set_kernel_profile(nullptr);
   s.run([&](gpu::CommandList& cmd) { cmd.dispatch(p, {b}, gpu_layout::TestFillParams{count, 0}, gpu::group_count(count, 64)); });
   EXPECT_TRUE(profile->take().empty());
+}
+
+// Texel-view reads (shared/texel_access.glsl) return every word bit for bit, NaN and infinity
+// patterns included, for buffer sizes that are not whole texels and with the staging path.
+TEST_F(ComputeCore, TexelViewReadsMatchTheStoredWordsForEdgeSizes) {
+  gpu::ComputePipeline p(ctx(), "test_texel_read", shaders::test_texel_read_comp(), 2, sizeof(gpu_layout::TestTexelParams),
+                         1u << TEST_TEXEL_BINDING_SRC);
+  std::mt19937 rng(7);
+  for (uint32_t words : {1u, 3u, 4u, 5u, 12u, 63u, 1000u, 24u * 1001u, 640u * 480u + 1u}) {
+    std::vector<uint32_t> in(words);
+    for (auto& w : in) w = rng();
+    in[0] = 0x7FC00001u;  // a NaN with a payload
+    if (words > 1) in[1] = 0xFF800000u;  // -infinity
+    auto src = gpu::Buffer::create(ctx(), words * 4, "texel source");
+    auto dst = gpu::Buffer::create(ctx(), words * 4, "texel copy");
+    stream().upload(src, in.data(), words * 4);
+    for (uint32_t mode = 0; mode <= 5; ++mode) {
+      const uint32_t per_element = mode == 2 || mode == 4 ? 2 : mode == 3 ? 4 : mode == 5 ? 12 : 1;
+      const uint32_t n = words / per_element * per_element;  // whole elements only
+      if (n == 0) continue;
+      stream().run([&](gpu::CommandList& cmd) {
+        cmd.dispatch(p, {src, dst}, gpu_layout::TestTexelParams{n, mode}, gpu::group_count(n, 64));
+      });
+      const auto out = stream().download<uint32_t>(dst, n);
+      for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], in[i]) << "words " << words << " mode " << mode << " word " << i;
+    }
+  }
+  auto staging = gpu::Buffer::create(ctx(), 64, "a staging buffer", gpu::BufferUsage::Staging);
+  try {
+    staging->texel_view();
+    FAIL() << "a staging buffer has no texel view";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("a staging buffer"));
+  }
 }
 
 TEST_F(ComputeCore, ZeroSizedDispatchIsSkipped) {
