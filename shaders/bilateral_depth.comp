@@ -4,15 +4,16 @@
 // Pixels without a reading stay without one and are never used as samples.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/image_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = BILATERAL_BINDING_SRC) readonly buffer Src { float src[]; };
+layout(binding = BILATERAL_BINDING_SRC) uniform usamplerBuffer src;  // texel view of float
 layout(std430, binding = BILATERAL_BINDING_DST) writeonly buffer Dst { float dst[]; };
 layout(push_constant) uniform Push { BilateralParams p; };
 void main() {
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
   if (px.x >= int(p.width) || px.y >= int(p.height)) return;
-  float centre = src[pixel_index(uvec2(px), p.width)];
+  float centre = texel_float(src, pixel_index(uvec2(px), p.width));
   if (centre <= 0.0) {
     dst[pixel_index(uvec2(px), p.width)] = 0.0;
     return;
@@ -24,7 +25,7 @@ void main() {
   float sum = 0.0, weight_sum = 0.0;
   for (int y = y0; y <= y1; ++y) {
     for (int x = x0; x <= x1; ++x) {
-      float d = src[pixel_index(uvec2(x, y), p.width)];
+      float d = texel_float(src, pixel_index(uvec2(x, y), p.width));
       if (d <= 0.0) continue;
       float dx = float(x - px.x), dy = float(y - px.y), dd = d - centre;
       float w = exp(-(dx * dx + dy * dy) * inv_2ss - dd * dd * inv_2sd);

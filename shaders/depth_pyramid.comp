@@ -4,9 +4,10 @@
 // phantom surfaces. No valid sample -> 0.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/image_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = DOWNSAMPLE_BINDING_SRC) readonly buffer Src { float src[]; };
+layout(binding = DOWNSAMPLE_BINDING_SRC) uniform usamplerBuffer src;  // texel view of float
 layout(std430, binding = DOWNSAMPLE_BINDING_DST) writeonly buffer Dst { float dst[]; };
 layout(push_constant) uniform Push { DownsampleParams p; };
 void main() {
@@ -16,7 +17,7 @@ void main() {
   float ref = 0.0, sum = 0.0, count = 0.0;
   for (uint y = 2u * px.y; y <= y_end; ++y) {
     for (uint x = 2u * px.x; x <= x_end; ++x) {
-      float d = src[pixel_index(uvec2(x, y), p.src_width)];
+      float d = texel_float(src, pixel_index(uvec2(x, y), p.src_width));
       if (d <= 0.0) continue;
       if (ref == 0.0) ref = d;
       if (abs(d - ref) <= p.max_depth_diff_m) {

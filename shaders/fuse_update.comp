@@ -4,27 +4,29 @@
 // no surfel explains the pixel. The host guarantees room for one new surfel per pixel.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/rigid.glsl"
 #include "shared/fusion.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = FUSE_BINDING_SURFELS) buffer Surfels { Surfel surfels[]; };
+layout(binding = FUSE_BINDING_SURFELS) uniform usamplerBuffer surfels_in;  // texel view
+layout(std430, binding = FUSE_BINDING_SURFELS_OUT) writeonly buffer Surfels { Surfel surfels[]; };
 layout(std430, binding = FUSE_BINDING_INDEX_MAP) readonly buffer IndexMap { uint index_map_unused[]; };
-layout(std430, binding = FUSE_BINDING_VERTEX) readonly buffer Vertex { vec4 vertex[]; };
-layout(std430, binding = FUSE_BINDING_NORMAL) readonly buffer Normal { vec4 normal[]; };
-layout(std430, binding = FUSE_BINDING_RGB) readonly buffer Rgb { uint rgb[]; };
-layout(std430, binding = FUSE_BINDING_ASSOC) readonly buffer Assoc { uint assoc[]; };
-layout(std430, binding = FUSE_BINDING_CLAIM) readonly buffer Claim { uint claim[]; };
+layout(binding = FUSE_BINDING_VERTEX) uniform usamplerBuffer vertex;  // texel view of vec4
+layout(binding = FUSE_BINDING_NORMAL) uniform usamplerBuffer normal;  // texel view of vec4
+layout(binding = FUSE_BINDING_RGB) uniform usamplerBuffer rgb;  // texel view of uint
+layout(binding = FUSE_BINDING_ASSOC) uniform usamplerBuffer assoc;  // texel view of uint
+layout(binding = FUSE_BINDING_CLAIM) uniform usamplerBuffer claim;  // texel view of uint
 layout(std430, binding = FUSE_BINDING_COUNTER) buffer Counter { uint counter[]; };
 layout(std430, binding = FUSE_BINDING_LABELS) readonly buffer Labels { uint labels_unused[]; };
 layout(push_constant) uniform Push { FuseParams p; };
-uint byte_at(uint b) { return (rgb[b >> 2] >> ((b & 3u) * 8u)) & 0xFFu; }
+uint byte_at(uint b) { return (texel_uint(rgb, b >> 2) >> ((b & 3u) * 8u)) & 0xFFu; }
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
   if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
-  uint a = assoc[i];
+  uint a = texel_uint(assoc, i);
   if (a == FUSE_SKIP_PIXEL) return;
-  vec3 v = vertex[i].xyz, n = normal[i].xyz;
+  vec3 v = texel_vec4(vertex, i).xyz, n = texel_vec4(normal, i).xyz;
   float alpha = measurement_weight(px, p.cx, p.cy);
   float radius = surfel_radius(v, n, p.fx);
   vec3 colour = vec3(byte_at(3u * i), byte_at(3u * i + 1u), byte_at(3u * i + 2u));
@@ -45,8 +47,8 @@ void main() {
     surfels[slot] = s;
     return;
   }
-  if (claim[a] != i) return;  // another pixel fuses into this surfel
-  Surfel s = surfels[a];
+  if (texel_uint(claim, a) != i) return;  // another pixel fuses into this surfel
+  Surfel s = surfel_at(surfels_in, a);
   float c = s.confidence;
   if (radius <= p.max_radius_growth * s.radius_m) {
     float w = 1.0 / (c + alpha);

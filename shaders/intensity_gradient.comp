@@ -3,12 +3,13 @@
 // clamped. Used by the photometric term of tracking.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/image_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = GRADIENT_BINDING_INTENSITY) readonly buffer Intensity { float intensity[]; };
+layout(binding = GRADIENT_BINDING_INTENSITY) uniform usamplerBuffer intensity;  // texel view of float
 layout(std430, binding = GRADIENT_BINDING_GRADIENT) writeonly buffer Gradient { vec2 gradient[]; };
 layout(push_constant) uniform Push { GradientParams p; };
-float at(ivec2 q) { return intensity[pixel_index(uvec2(clamp_pixel(q, p.width, p.height)), p.width)]; }
+float at(ivec2 q) { return texel_float(intensity, pixel_index(uvec2(clamp_pixel(q, p.width, p.height)), p.width)); }
 void main() {
   ivec2 px = ivec2(gl_GlobalInvocationID.xy + uvec2(p.x0, p.y0));
   if (px.x >= int(min(p.x1, p.width)) || px.y >= int(min(p.y1, p.height))) return;

@@ -5,19 +5,20 @@
 // in shared/host_device.h. CPU reference: compute/slam/motion_reference.cpp.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = MOTION_RESIDUAL_BINDING_LIVE_VERTEX) readonly buffer LiveVertex { vec4 live_vertex[]; };
-layout(std430, binding = MOTION_RESIDUAL_BINDING_LIVE_INTENSITY) readonly buffer LiveIntensity { float live_intensity[]; };
-layout(std430, binding = MOTION_RESIDUAL_BINDING_REF_VERTEX) readonly buffer RefVertex { vec4 ref_vertex[]; };
-layout(std430, binding = MOTION_RESIDUAL_BINDING_REF_NORMAL) readonly buffer RefNormal { vec4 ref_normal[]; };
-layout(std430, binding = MOTION_RESIDUAL_BINDING_REF_INTENSITY) readonly buffer RefIntensity { float ref_intensity[]; };
+layout(binding = MOTION_RESIDUAL_BINDING_LIVE_VERTEX) uniform usamplerBuffer live_vertex;  // texel view of vec4
+layout(binding = MOTION_RESIDUAL_BINDING_LIVE_INTENSITY) uniform usamplerBuffer live_intensity;  // texel view of float
+layout(binding = MOTION_RESIDUAL_BINDING_REF_VERTEX) uniform usamplerBuffer ref_vertex;  // texel view of vec4
+layout(binding = MOTION_RESIDUAL_BINDING_REF_NORMAL) uniform usamplerBuffer ref_normal;  // texel view of vec4
+layout(binding = MOTION_RESIDUAL_BINDING_REF_INTENSITY) uniform usamplerBuffer ref_intensity;  // texel view of float
 layout(std430, binding = MOTION_RESIDUAL_BINDING_OUT) writeonly buffer Out { vec4 residual[]; };
 layout(push_constant) uniform Push { MotionResidualParams p; };
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
   if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
-  vec4 v_live = live_vertex[i];
+  vec4 v_live = texel_vec4(live_vertex, i);
   if (v_live.w <= 0.0) {
     residual[i] = vec4(0.0, 0.0, 0.0, MOTION_STATUS_NO_LIVE);
     return;
@@ -40,14 +41,14 @@ void main() {
     return;
   }
   const uint j = uint(floor(y + 0.5)) * p.width + uint(floor(x + 0.5));
-  const vec4 v_ref = ref_vertex[j];
+  const vec4 v_ref = texel_vec4(ref_vertex, j);
   if (v_ref.w <= 0.0) {
     residual[i] = none;
     return;
   }
-  const vec4 n_ref = ref_normal[j];
+  const vec4 n_ref = texel_vec4(ref_normal, j);
   const vec3 d = q - v_ref.xyz;
   const float distance_m = n_ref.w > 0.0 ? abs(dot(n_ref.xyz, d)) : length(d);
-  const float intensity = abs(ref_intensity[j] - live_intensity[i]) * (1.0 / 255.0);
+  const float intensity = abs(texel_float(ref_intensity, j) - texel_float(live_intensity, i)) * (1.0 / 255.0);
   residual[i] = vec4(distance_m, q.z - v_ref.z, intensity, MOTION_STATUS_ASSOCIATED);
 }

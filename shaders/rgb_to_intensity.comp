@@ -3,12 +3,13 @@
 // (3 per pixel) in a uint array, as the frame sources deliver them, to avoid a CPU repack.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/image_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = INTENSITY_BINDING_RGB) readonly buffer Rgb { uint rgb[]; };
+layout(binding = INTENSITY_BINDING_RGB) uniform usamplerBuffer rgb;  // texel view of uint
 layout(std430, binding = INTENSITY_BINDING_INTENSITY) writeonly buffer Intensity { float intensity[]; };
 layout(push_constant) uniform Push { IntensityParams p; };
-uint byte_at(uint i) { return (rgb[i >> 2] >> ((i & 3u) * 8u)) & 0xFFu; }
+uint byte_at(uint i) { return (texel_uint(rgb, i >> 2) >> ((i & 3u) * 8u)) & 0xFFu; }
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy;
   if (px.x >= p.width || px.y >= p.height) return;

@@ -3,10 +3,11 @@
 // would blend surfaces across depth edges; the finer level already holds exact surfel samples.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = SUBSAMPLE_BINDING_SRC_VERTEX) readonly buffer SV { vec4 src_vertex[]; };
-layout(std430, binding = SUBSAMPLE_BINDING_SRC_NORMAL) readonly buffer SN { vec4 src_normal[]; };
-layout(std430, binding = SUBSAMPLE_BINDING_SRC_INTENSITY) readonly buffer SI { float src_intensity[]; };
+layout(binding = SUBSAMPLE_BINDING_SRC_VERTEX) uniform usamplerBuffer src_vertex;  // texel view of vec4
+layout(binding = SUBSAMPLE_BINDING_SRC_NORMAL) uniform usamplerBuffer src_normal;  // texel view of vec4
+layout(binding = SUBSAMPLE_BINDING_SRC_INTENSITY) uniform usamplerBuffer src_intensity;  // texel view of float
 layout(std430, binding = SUBSAMPLE_BINDING_DST_VERTEX) writeonly buffer DV { vec4 dst_vertex[]; };
 layout(std430, binding = SUBSAMPLE_BINDING_DST_NORMAL) writeonly buffer DN { vec4 dst_normal[]; };
 layout(std430, binding = SUBSAMPLE_BINDING_DST_INTENSITY) writeonly buffer DI { float dst_intensity[]; };
@@ -16,7 +17,7 @@ void main() {
   if (px.x >= min(p.x1, p.dst_width) || px.y >= min(p.y1, p.dst_height)) return;
   uvec2 src = min(2u * px, uvec2(p.src_width - 1u, p.src_height - 1u));
   uint s = src.y * p.src_width + src.x, d = px.y * p.dst_width + px.x;
-  dst_vertex[d] = src_vertex[s];
-  dst_normal[d] = src_normal[s];
-  dst_intensity[d] = src_intensity[s];
+  dst_vertex[d] = texel_vec4(src_vertex, s);
+  dst_normal[d] = texel_vec4(src_normal, s);
+  dst_intensity[d] = texel_float(src_intensity, s);
 }

@@ -5,9 +5,10 @@
 // sensor depth. Normals face the camera. A vertex or normal without support has w = 0.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/image_access.glsl"
 layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
-layout(std430, binding = VERTEX_NORMAL_BINDING_DEPTH) readonly buffer Depth { float depth_m[]; };
+layout(binding = VERTEX_NORMAL_BINDING_DEPTH) uniform usamplerBuffer depth_m;  // texel view of float
 layout(std430, binding = VERTEX_NORMAL_BINDING_VERTEX) writeonly buffer Vertex { vec4 vertex[]; };
 layout(std430, binding = VERTEX_NORMAL_BINDING_NORMAL) writeonly buffer Normal { vec4 normal[]; };
 layout(push_constant) uniform Push { VertexNormalParams p; };
@@ -18,7 +19,7 @@ void main() {
   uvec2 px = gl_GlobalInvocationID.xy;
   if (px.x >= p.width || px.y >= p.height) return;
   uint i = pixel_index(px, p.width);
-  float d = depth_m[i];
+  float d = texel_float(depth_m, i);
   if (d <= 0.0) {
     vertex[i] = vec4(0.0);
     normal[i] = vec4(0.0);
@@ -28,8 +29,8 @@ void main() {
   vertex[i] = vec4(v, 1.0);
   vec4 n = vec4(0.0);
   if (px.x > 0u && px.y > 0u && px.x + 1u < p.width && px.y + 1u < p.height) {
-    float d_left = depth_m[i - 1u], d_right = depth_m[i + 1u];
-    float d_up = depth_m[i - p.width], d_down = depth_m[i + p.width];
+    float d_left = texel_float(depth_m, i - 1u), d_right = texel_float(depth_m, i + 1u);
+    float d_up = texel_float(depth_m, i - p.width), d_down = texel_float(depth_m, i + p.width);
     if (d_left > 0.0 && d_right > 0.0 && d_up > 0.0 && d_down > 0.0) {
       vec3 c = cross(back_project(px.x + 1u, px.y, d_right) - back_project(px.x - 1u, px.y, d_left),
                      back_project(px.x, px.y + 1u, d_down) - back_project(px.x, px.y - 1u, d_up));

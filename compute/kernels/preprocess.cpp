@@ -55,13 +55,20 @@ void FramePyramid::upload(gpu::Stream& stream, const float* depth_m, const uint8
 }
 
 Preprocessor::Preprocessor(gpu::Context& ctx)
-    : depth_to_metres_(ctx, "depth_to_metres", shaders::depth_to_metres_comp(), 2, sizeof(L::DepthToMetresParams)),
-      bilateral_(ctx, "bilateral_depth", shaders::bilateral_depth_comp(), 2, sizeof(L::BilateralParams)),
-      depth_pyramid_(ctx, "depth_pyramid", shaders::depth_pyramid_comp(), 2, sizeof(L::DownsampleParams)),
-      intensity_pyramid_(ctx, "intensity_pyramid", shaders::intensity_pyramid_comp(), 2, sizeof(L::DownsampleParams)),
-      rgb_to_intensity_(ctx, "rgb_to_intensity", shaders::rgb_to_intensity_comp(), 2, sizeof(L::IntensityParams)),
-      vertex_normal_(ctx, "vertex_normal_map", shaders::vertex_normal_map_comp(), 3, sizeof(L::VertexNormalParams)),
-      gradient_(ctx, "intensity_gradient", shaders::intensity_gradient_comp(), 2, sizeof(L::GradientParams)) {}
+    : depth_to_metres_(ctx, "depth_to_metres", shaders::depth_to_metres_comp(), 2, sizeof(L::DepthToMetresParams),
+                       1u << DEPTH_TO_METRES_BINDING_RAW),
+      bilateral_(ctx, "bilateral_depth", shaders::bilateral_depth_comp(), 2, sizeof(L::BilateralParams),
+                 1u << BILATERAL_BINDING_SRC),
+      depth_pyramid_(ctx, "depth_pyramid", shaders::depth_pyramid_comp(), 2, sizeof(L::DownsampleParams),
+                     1u << DOWNSAMPLE_BINDING_SRC),
+      intensity_pyramid_(ctx, "intensity_pyramid", shaders::intensity_pyramid_comp(), 2, sizeof(L::DownsampleParams),
+                         1u << DOWNSAMPLE_BINDING_SRC),
+      rgb_to_intensity_(ctx, "rgb_to_intensity", shaders::rgb_to_intensity_comp(), 2, sizeof(L::IntensityParams),
+                        1u << INTENSITY_BINDING_RGB),
+      vertex_normal_(ctx, "vertex_normal_map", shaders::vertex_normal_map_comp(), 3, sizeof(L::VertexNormalParams),
+                    1u << VERTEX_NORMAL_BINDING_DEPTH),
+      gradient_(ctx, "intensity_gradient", shaders::intensity_gradient_comp(), 2, sizeof(L::GradientParams),
+                1u << GRADIENT_BINDING_INTENSITY) {}
 
 void Preprocessor::depth_to_metres(gpu::CommandList& cmd, const gpu::BufferPtr& raw, const gpu::BufferPtr& depth_m,
                                    int width, int height, float metres_per_unit, float min_depth_m,

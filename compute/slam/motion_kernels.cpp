@@ -27,8 +27,12 @@ void require(const gpu::BufferPtr& buffer, size_t bytes, const std::string& what
 }  // namespace
 
 MotionKernels::MotionKernels(gpu::Context& ctx)
-    : mask_vertices_(ctx, "mask_vertices", shaders::mask_vertices_comp(), 3, sizeof(L::MaskVerticesParams)),
-      motion_residual_(ctx, "motion_residual", shaders::motion_residual_comp(), 6, sizeof(L::MotionResidualParams)) {}
+    : mask_vertices_(ctx, "mask_vertices", shaders::mask_vertices_comp(), 3, sizeof(L::MaskVerticesParams),
+                     (1u << MASK_VERTICES_BINDING_SRC) | (1u << MASK_VERTICES_BINDING_LABELS)),
+      motion_residual_(ctx, "motion_residual", shaders::motion_residual_comp(), 6, sizeof(L::MotionResidualParams),
+                       (1u << MOTION_RESIDUAL_BINDING_LIVE_VERTEX) | (1u << MOTION_RESIDUAL_BINDING_LIVE_INTENSITY) |
+                           (1u << MOTION_RESIDUAL_BINDING_REF_VERTEX) | (1u << MOTION_RESIDUAL_BINDING_REF_NORMAL) |
+                           (1u << MOTION_RESIDUAL_BINDING_REF_INTENSITY)) {}
 
 void MotionKernels::mask_vertices(gpu::CommandList& cmd, const gpu::BufferPtr& src_vertex,
                                   const gpu::BufferPtr& dst_vertex, const gpu::BufferPtr& labels, int level_width,

@@ -102,11 +102,15 @@ SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor&
       splat_(ctx, "splat_surfels", shaders::splat_surfels_comp(), 2, sizeof(L::SplatParams), 1u << SPLAT_BINDING_SURFELS),
       resolve_(ctx, "splat_resolve", shaders::splat_resolve_comp(), 6, sizeof(L::ResolveParams),
                (1u << RESOLVE_BINDING_SURFELS) | (1u << RESOLVE_BINDING_DEPTH_INDEX)),
-      subsample_(ctx, "subsample_prediction", shaders::subsample_prediction_comp(), 6, sizeof(L::SubsampleParams)),
+      subsample_(ctx, "subsample_prediction", shaders::subsample_prediction_comp(), 6, sizeof(L::SubsampleParams),
+                 (1u << SUBSAMPLE_BINDING_SRC_VERTEX) | (1u << SUBSAMPLE_BINDING_SRC_NORMAL) |
+                     (1u << SUBSAMPLE_BINDING_SRC_INTENSITY)),
       associate_(ctx, "fuse_associate", shaders::fuse_associate_comp(), 9, sizeof(L::FuseParams),
                  (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_INDEX_MAP) | (1u << FUSE_BINDING_VERTEX) |
                      (1u << FUSE_BINDING_NORMAL) | (1u << FUSE_BINDING_LABELS)),
-      update_(ctx, "fuse_update", shaders::fuse_update_comp(), 9, sizeof(L::FuseParams)),
+      update_(ctx, "fuse_update", shaders::fuse_update_comp(), 10, sizeof(L::FuseParams),
+              (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_VERTEX) | (1u << FUSE_BINDING_NORMAL) | (1u << FUSE_BINDING_RGB) |
+                  (1u << FUSE_BINDING_ASSOC) | (1u << FUSE_BINDING_CLAIM)),
       cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams),
                (1u << CLEANUP_BINDING_SRC) | (1u << CLEANUP_BINDING_DEPTH)),
       remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 5,
@@ -209,7 +213,8 @@ void SurfelPipelines::associate(gpu::CommandList& cmd, const FuseBuffers& b, con
 void SurfelPipelines::update(gpu::CommandList& cmd, const FuseBuffers& b, const L::FuseParams& p) const {
   const auto [gx, gy] = rect_tiles(p);
   if (gx == 0) return;
-  cmd.dispatch(update_, {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels}, p,
+  cmd.dispatch(update_,
+               {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels, b.surfels}, p,
                gx, gy);
 }
 

@@ -150,6 +150,10 @@ struct SubsampleParams {
 #define FUSE_BINDING_CLAIM 6       // uint[] per surfel: lowest live pixel index associated
 #define FUSE_BINDING_COUNTER 7     // uint[4]: [0] surfel count (new surfels appended atomically)
 #define FUSE_BINDING_LABELS 8      // uint[] per live pixel: model label (used when use_labels)
+// fuse_update only: the surfel buffer again, written here while FUSE_BINDING_SURFELS reads it
+// through its texel view. Safe: a surfel is read and written only by the pixel that claimed it,
+// and appended surfels lie beyond every surfel that is read.
+#define FUSE_BINDING_SURFELS_OUT 9
 #define FUSE_NO_SURFEL 0xFFFFFFFFu
 #define FUSE_SKIP_PIXEL 0xFFFFFFFEu
 struct FuseParams {
