@@ -56,8 +56,9 @@ Eigen::Isometry3d look_at(const Eigen::Vector3d& eye_world, const Eigen::Vector3
 
 ViewRenderer::ViewRenderer(gpu::Context& ctx)
     : ctx_(ctx),
-      splat_(ctx, "view_splat", shaders::view_splat_comp(), 2, sizeof(ViewSplatParams)),
-      resolve_(ctx, "view_resolve", shaders::view_resolve_comp(), 3, sizeof(ViewResolveParams)) {}
+      splat_(ctx, "view_splat", shaders::view_splat_comp(), 2, sizeof(ViewSplatParams), 1u << VIEW_SPLAT_BINDING_SURFELS),
+      resolve_(ctx, "view_resolve", shaders::view_resolve_comp(), 3, sizeof(ViewResolveParams),
+               (1u << VIEW_RESOLVE_BINDING_SURFELS) | (1u << VIEW_RESOLVE_BINDING_DEPTH_INDEX)) {}
 
 gpu::BufferPtr ViewRenderer::depth_index_for(int width, int height) const {
   const size_t bytes = static_cast<size_t>(width) * height * sizeof(uint64_t);

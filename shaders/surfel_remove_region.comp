@@ -5,26 +5,27 @@
 // surface (background the object occluded) stay. Layout and rule in shared/host_device.h.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/rigid.glsl"
 layout(local_size_x = 128) in;
-layout(std430, binding = REMOVE_REGION_BINDING_SRC) readonly buffer Src { Surfel src[]; };
+layout(binding = REMOVE_REGION_BINDING_SRC) uniform usamplerBuffer src;  // texel view
 layout(std430, binding = REMOVE_REGION_BINDING_DST) writeonly buffer Dst { Surfel dst[]; };
-layout(std430, binding = REMOVE_REGION_BINDING_DEPTH) readonly buffer Depth { float depth_m[]; };
-layout(std430, binding = REMOVE_REGION_BINDING_LABELS) readonly buffer Labels { uint labels[]; };
+layout(binding = REMOVE_REGION_BINDING_DEPTH) uniform usamplerBuffer depth_m;  // texel view of float
+layout(binding = REMOVE_REGION_BINDING_LABELS) uniform usamplerBuffer labels;  // texel view of uint
 layout(std430, binding = REMOVE_REGION_BINDING_COUNTER) buffer Counter { uint counter[]; };
 layout(push_constant) uniform Push { RemoveRegionParams p; };
 void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= min(p.surfel_count, counter[0])) return;
-  Surfel s = src[i];
+  Surfel s = surfel_at(src, i);
   vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
   if (pc.z > 1e-3) {
     float x = p.fx * pc.x / pc.z + p.cx, y = p.fy * pc.y / pc.z + p.cy;
     // Nearest pixel, rounding halves up (GLSL round() leaves the direction to the driver).
     if (x >= -0.5 && y >= -0.5 && x < float(p.width) - 0.5 && y < float(p.height) - 0.5) {
       uint k = uint(floor(y + 0.5)) * p.width + uint(floor(x + 0.5));
-      float d = depth_m[k];
-      if (labels[k] == p.label && d > 0.0 && pc.z < d * (1.0 + p.margin_rel)) return;
+      float d = texel_float(depth_m, k);
+      if (texel_uint(labels, k) == p.label && d > 0.0 && pc.z < d * (1.0 + p.margin_rel)) return;
     }
   }
   dst[atomicAdd(counter[1], 1u)] = s;

@@ -8,15 +8,16 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_EXT_shader_atomic_int64 : require
 #include "shared/host_device.h"
+#include "shared/texel_access.glsl"
 #include "shared/rigid.glsl"
 layout(local_size_x = 128) in;
-layout(std430, binding = VIEW_SPLAT_BINDING_SURFELS) readonly buffer Surfels { Surfel surfels[]; };
+layout(binding = VIEW_SPLAT_BINDING_SURFELS) uniform usamplerBuffer surfels;  // texel view
 layout(std430, binding = VIEW_SPLAT_BINDING_DEPTH_INDEX) buffer DepthIndex { uint64_t depth_index[]; };
 layout(push_constant) uniform Push { ViewSplatParams p; };
 void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= p.surfel_count) return;
-  Surfel s = surfels[i];
+  Surfel s = surfel_at(surfels, i);
   if (!(s.confidence >= p.min_confidence)) return;
   vec3 pc = rigid_apply(p.T_view_model, vec3(s.px, s.py, s.pz));
   if (!(pc.z > p.near_m)) return;

@@ -109,12 +109,14 @@ SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor&
                  (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_INDEX_MAP) | (1u << FUSE_BINDING_VERTEX) |
                      (1u << FUSE_BINDING_NORMAL) | (1u << FUSE_BINDING_LABELS)),
       update_(ctx, "fuse_update", shaders::fuse_update_comp(), 10, sizeof(L::FuseParams),
-              (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_VERTEX) | (1u << FUSE_BINDING_NORMAL) | (1u << FUSE_BINDING_RGB) |
-                  (1u << FUSE_BINDING_ASSOC) | (1u << FUSE_BINDING_CLAIM)),
+              (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_VERTEX) | (1u << FUSE_BINDING_NORMAL) |
+                  (1u << FUSE_BINDING_RGB) | (1u << FUSE_BINDING_ASSOC) | (1u << FUSE_BINDING_CLAIM)),
       cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams),
                (1u << CLEANUP_BINDING_SRC) | (1u << CLEANUP_BINDING_DEPTH)),
       remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 5,
-                     sizeof(L::RemoveRegionParams)) {}
+                     sizeof(L::RemoveRegionParams),
+                     (1u << REMOVE_REGION_BINDING_SRC) | (1u << REMOVE_REGION_BINDING_DEPTH) |
+                         (1u << REMOVE_REGION_BINDING_LABELS)) {}
 
 void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
                               ModelPrediction& out, const PredictionParams& params, int frame,
