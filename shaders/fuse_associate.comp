@@ -4,7 +4,6 @@
 // pixel's ray (ties: the most confident), so that neighbouring pixels keep to their own surfels. Several pixels may pick one surfel; the lowest pixel index
 // claims it (atomicMin), so the update is race-free and deterministic.
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
 #include "shared/texel_access.glsl"
@@ -33,11 +32,20 @@ void main() {
   uint best = FUSE_NO_SURFEL;
   float best_confidence = -1.0, best_ray_dist = 1e30;
   bool depth_agrees = false;
+  // One texel holds two neighbouring cells' keys: with an even grid scale each row of the block
+  // is one fetch. Only a key's low word (the surfel index) is needed; an empty cell is all ones,
+  // and no surfel has index 0xFFFFFFFF.
+  uint pair_texel = 0xFFFFFFFFu;
+  uvec4 pair = uvec4(0u);
   for (uint sy = 0u; sy < S; ++sy) {
     for (uint sx = 0u; sx < S; ++sx) {
-      uint64_t key = packUint2x32(texel_uint2(index_map, (px.y * S + sy) * grid_width + px.x * S + sx));
-      if (key == ~uint64_t(0)) continue;
-      uint si = uint(key & 0xFFFFFFFFul);
+      const uint cell = (px.y * S + sy) * grid_width + px.x * S + sx;
+      if ((cell >> 1u) != pair_texel) {
+        pair_texel = cell >> 1u;
+        pair = texelFetch(index_map, int(pair_texel));
+      }
+      const uint si = (cell & 1u) == 0u ? pair.x : pair.z;
+      if (si == 0xFFFFFFFFu) continue;
       const vec4 pos_conf = surfel_position_confidence(surfels, si);
       vec3 pc = rigid_apply(p.T_camera_model, pos_conf.xyz);
       vec3 nc = rigid_rotate(p.T_camera_model, surfel_normal_radius(surfels, si).xyz);
