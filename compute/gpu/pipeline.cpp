@@ -8,7 +8,7 @@ ComputePipeline::ComputePipeline(Context& ctx, const std::string& name, std::spa
                                  uint32_t binding_count, uint32_t push_constant_bytes, uint32_t texel_bindings)
     : name_(name), binding_count_(binding_count), push_constant_bytes_(push_constant_bytes), texel_bindings_(texel_bindings) {
   if (spirv.empty()) throw Error("compute pipeline '" + name + "': empty SPIR-V");
-  if (binding_count > 32 || (binding_count < 32 && (texel_bindings >> binding_count) != 0))
+  if (binding_count < 32 && (texel_bindings >> binding_count) != 0)
     throw Error("compute pipeline '" + name + "': texel bindings beyond its " + std::to_string(binding_count) + " bindings");
   std::vector<vk::DescriptorSetLayoutBinding> bindings;
   for (uint32_t b = 0; b < binding_count; ++b)

@@ -146,6 +146,9 @@ TEST_F(ComputeCore, TexelViewReadsMatchTheStoredWordsForEdgeSizes) {
       for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], in[i]) << "words " << words << " mode " << mode << " word " << i;
     }
   }
+  EXPECT_THROW(gpu::ComputePipeline(ctx(), "test_texel_read", shaders::test_texel_read_comp(), 2,
+                                    sizeof(gpu_layout::TestTexelParams), 1u << 2),
+               Error);  // a texel binding beyond the pipeline's bindings
   auto staging = gpu::Buffer::create(ctx(), 64, "a staging buffer", gpu::BufferUsage::Staging);
   try {
     staging->texel_view();
