@@ -24,7 +24,7 @@ void main() {
   if (pc.z > 1e-3) {
     int x = int(round(p.fx * pc.x / pc.z + p.cx)), y = int(round(p.fy * pc.y / pc.z + p.cy));
     if (x >= 0 && y >= 0 && x < int(p.width) && y < int(p.height)) {
-      float d = uintBitsToFloat(texel_uint(depth_m, uint(y) * p.width + uint(x)));
+      float d = texel_float(depth_m, uint(y) * p.width + uint(x));
       if (d > 0.0 && pc.z < d - p.free_space_margin_rel * d) {
         s.confidence -= p.free_space_penalty;
         if (s.confidence <= 0.0) return;

@@ -57,6 +57,8 @@ class CommandList {
   // Names the dispatches recorded from now on in the kernel profile ("icp_rgb_reduce 640x480");
   // no effect unless the Context has a profile attached.
   void set_profile_label(const std::string& label);
+  // Whether this list's dispatches are timed (callers skip building labels otherwise).
+  bool profiled() const { return timing_ != nullptr; }
   vk::CommandBuffer handle() const { return *cmd_; }
   // A profiled list allocates query pools of this many dispatches (two timestamps each) as needed.
   static constexpr uint32_t kProfiledDispatchesPerPool = 128;

@@ -123,7 +123,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   if (params_.outline_photometric && !live.depth_m) throw Error("Tracker: the outline term needs the live level's depth");
   const gpu::BufferPtr& live_depth = live.depth_m ? live.depth_m : live.intensity;
   auto cmd = stream.begin();
-  cmd.set_profile_label(std::to_string(live.width) + "x" + std::to_string(live.height));
+  if (cmd.profiled()) cmd.set_profile_label(std::to_string(live.width) + "x" + std::to_string(live.height));
   cmd.dispatch(reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
                 reference.gradient, partials_, live.gradient, live_depth},

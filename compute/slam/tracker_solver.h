@@ -18,9 +18,10 @@ namespace cofusion::slam {
 struct TrackerParams {
   // Most Gauss-Newton iterations per pyramid level, index 0 = full resolution. Each level has 1/4
   // of the pixels of the one below, so coarse iterations are cheap and do most of the work.
-  // Measured on lavapipe (2 cores shared with other work): one 640x480 iteration (ICP +
-  // photometric) costs 22 ms, 320x240 5 ms, 80x60 0.7 ms (mostly the round trip); levels 1-3 ran
-  // to their caps in most frames. {1, 2, 4, 8} against {2, 4, 6, 10}: TUM fr2/desk 3.9 vs 3.7 mm,
+  // Measured on lavapipe (2 cores shared with other work; `bench --kernel-profile`): one 640x480
+  // iteration (ICP + photometric) costs 14 ms of GPU time, 320x240 3 ms, 80x60 0.5 ms (22, 5 and
+  // 0.7 ms before the kernels read through texel views); levels 1-3 ran to their caps in most
+  // frames. {1, 2, 4, 8} against {2, 4, 6, 10}: TUM fr2/desk 3.9 vs 3.7 mm,
   // fr1/rpy 2.56 vs 2.58 cm, the generated scenes within their run-to-run spread; over six
   // interleaved benchmark runs, background only 15-45% faster, background + 2 objects (whose
   // trackers keep more: LifecycleParams::object_iterations_per_level) median 3.3 -> 3.6 fps.
