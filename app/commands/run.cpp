@@ -152,7 +152,7 @@ void run(const RunOptions& o) {
       if (active_only && m.state != slam::ModelState::kActive) continue;
       SurfelCloud cloud;
       cloud.model_id = m.id;
-      cloud.class_name = m.id == 0 ? "background" : "object";
+      cloud.class_name = m.class_name;
       cloud.T_world_model = m.model->T_world_model;
       cloud.surfels = m.model->download(slam.stream());
       out.push_back(std::move(cloud));
@@ -287,7 +287,7 @@ void run(const RunOptions& o) {
                                  {"surfels", all_models[k].surfels.size()},
                                  {"first_frame", m.first_frame},
                                  {"last_frame", m.last_frame},
-                                 {"class", m.id == 0 ? "background" : "object"}});
+                                 {"class", m.class_name}, {"class_confidence", m.class_confidence}});
   }
   summary["events"] = events;
   write_text_atomically(out_dir / "summary.json", summary.dump(2) + "\n");

@@ -775,6 +775,7 @@ std::vector<ModelSnapshot> CoFusion::models() const {
     s.model = &m->surfels;
     s.first_frame = m->first_frame;
     s.last_frame = m->last_frame;
+    s.class_name = m->id == 0 ? "background" : "object";
     s.trajectory = m->seen_trajectory;
     out.push_back(std::move(s));
   }

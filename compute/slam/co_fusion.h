@@ -233,6 +233,11 @@ struct ModelSnapshot {
   ModelState state = ModelState::kActive;
   const SurfelModel* model = nullptr;
   int first_frame = 0, last_frame = 0;
+  // Semantic class: "background" for id 0, the class it was most often recognised as by instance
+  // masks (ModelClassVotes), else "object"; confidence = that class's share of its recognitions
+  // (0 when never recognised).
+  std::string class_name;
+  double class_confidence = 0.0;
   // (frame, T_world_model) in the frames it was active and its tracking did not fail (the frame
   // it spawned or re-activated included): a failed tracking only guesses the pose.
   PoseHistory trajectory;
