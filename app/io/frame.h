@@ -8,6 +8,7 @@
 #include <string>
 
 #include "common/intrinsics.h"
+#include "io/instance_classes.h"
 
 namespace cofusion {
 
@@ -21,6 +22,9 @@ struct Frame {
   cv::Mat rgb;              // CV_8UC3, R,G,B byte order, size = intrinsics
   cv::Mat depth_m;          // CV_32FC1 metres, 0 = no reading (never NaN/inf once read)
   cv::Mat mask;             // CV_16UC1 instance ids (0 = background / none); empty if unavailable
+  // Class of each mask id, shared by every frame of a source (read once); null when the source
+  // has no class table. When set, every non-zero id of `mask` has a class in it.
+  std::shared_ptr<const InstanceClasses> mask_classes;
   Intrinsics intrinsics;
   std::optional<Pose> T_world_camera_gt;  // ground truth when the source has it
 };

@@ -90,6 +90,9 @@ ImageFolderSource::ImageFolderSource(fs::path folder, ImageFolderSourceOptions o
     if (mask_files_.size() != rgb_files_.size())
       throw Error("image folder " + folder_.string() + ": " + std::to_string(rgb_files_.size()) + " colour images but " +
                   std::to_string(mask_files_.size()) + " masks in " + (folder_ / "masks").string());
+    const fs::path classes = folder_ / "masks" / kInstanceClassesFile;
+    if (fs::is_regular_file(classes, ec))
+      mask_classes_ = std::make_shared<const InstanceClasses>(read_instance_classes(classes));
   }
 
   const fs::path timestamps = folder_ / "timestamps.txt";
@@ -148,14 +151,17 @@ std::optional<Frame> ImageFolderSource::next() {
   if (!mask_files_.empty()) {
     frame.mask = read_mask_image(mask_files_[next_]);
     require_image_size(frame.mask, k.width, k.height, "mask image " + mask_files_[next_].string());
+    if (mask_classes_) require_mask_ids_classified(frame.mask, *mask_classes_, mask_files_[next_]);
+    frame.mask_classes = mask_classes_;
   }
   ++next_;
   return frame;
 }
 
 std::string ImageFolderSource::describe() const {
+  const char* masks = mask_files_.empty() ? "" : mask_classes_ ? ", masks with classes" : ", masks";
   return "images:" + folder_.string() + " (" + std::to_string(rgb_files_.size()) + " frames, " + intrinsics_.origin +
-         ": " + intrinsics_.intrinsics.to_string() + (mask_files_.empty() ? "" : ", masks") + ")";
+         ": " + intrinsics_.intrinsics.to_string() + masks + ")";
 }
 
 }  // namespace cofusion

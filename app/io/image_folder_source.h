@@ -3,12 +3,14 @@
 //   FOLDER/colour/ (or color/, rgb/)  8-bit colour images
 //   FOLDER/depth/                     16-bit depth (millimetres by default) or 32-bit float
 //                                     EXR/TIFF in metres
-//   FOLDER/masks/                     optional 8/16-bit instance-id images
+//   FOLDER/masks/                     optional 8/16-bit instance-id images (lossless: PNG etc.),
+//                                     with an optional masks/classes.txt (io/instance_classes.h)
 //   FOLDER/calibration.txt            "fx fy cx cy [w h]"
 //   FOLDER/timestamps.txt             optional, one timestamp in seconds per frame
 // Files are sorted by name (digit runs compared as numbers, so "img2" < "img10") and paired by
 // position; the folders must hold the same number of images.
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -43,6 +45,7 @@ class ImageFolderSource : public FrameSource {
   IntrinsicsChoice intrinsics_;
   std::vector<std::filesystem::path> rgb_files_, depth_files_, mask_files_;
   std::vector<double> timestamps_s_;
+  std::shared_ptr<const InstanceClasses> mask_classes_;  // masks/classes.txt; null without one
   std::size_t next_ = 0;
 };
 

@@ -1,5 +1,6 @@
 #include "io/image_io.h"
 
+#include <cctype>
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -71,6 +72,10 @@ cv::Mat read_depth_image(const fs::path& path, double units_per_metre) {
 }
 
 cv::Mat read_mask_image(const fs::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".jpg" || ext == ".jpeg")
+    throw Error("mask image " + path.string() + " is a JPEG: masks must be lossless (PNG), or their ids change");
   const cv::Mat image = load(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR, "mask");
   if (image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U))
     throw Error("mask image " + path.string() + " has pixel type " + type_name(image) +

@@ -17,7 +17,8 @@ cv::Mat read_rgb_image(const std::filesystem::path& path);
 // taken as metres already. NaN, inf and negative readings become 0.
 cv::Mat read_depth_image(const std::filesystem::path& path, double units_per_metre);
 
-// Instance-id mask as CV_16UC1 (8-bit and 16-bit single-channel inputs accepted).
+// Instance-id mask as CV_16UC1 (8-bit and 16-bit single-channel inputs accepted; JPEG files are
+// rejected: lossy compression changes ids).
 cv::Mat read_mask_image(const std::filesystem::path& path);
 
 // In place: NaN, inf and negative values of a CV_32FC1 depth image become 0 (no reading).

@@ -1,6 +1,7 @@
 #include "io/tum_source.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -46,6 +47,16 @@ double parse_timestamp(const std::string& token, const fs::path& path, int line_
 
 bool starts_with_folder(const std::string& file, const char* folder) {
   return file.rfind(folder, 0) == 0;
+}
+
+// masks/<name of the colour image>, with the extension .png when the colour image is not a PNG
+// (rgb/x.jpg -> masks/x.png): masks must be lossless.
+fs::path mask_path_for(const fs::path& folder, const std::string& rgb_file) {
+  fs::path name = fs::path(rgb_file).filename();
+  std::string ext = name.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".png") name.replace_extension(".png");
+  return folder / "masks" / name;
 }
 
 }  // namespace
@@ -131,10 +142,13 @@ TumSource::TumSource(fs::path folder, TumSourceOptions options) : folder_(std::m
     for (const auto& file : {f.rgb.file, f.depth.file})
       if (!fs::is_regular_file(folder_ / file, ec)) throw Error("TUM image " + (folder_ / file).string() + " does not exist");
     if (has_masks_) {
-      const fs::path mask = folder_ / "masks" / fs::path(f.rgb.file).filename();
+      const fs::path mask = mask_path_for(folder_, f.rgb.file);
       if (!fs::is_regular_file(mask, ec)) throw Error("TUM mask " + mask.string() + " does not exist");
     }
   }
+  const fs::path classes = folder_ / "masks" / kInstanceClassesFile;
+  if (has_masks_ && fs::is_regular_file(classes, ec))
+    mask_classes_ = std::make_shared<const InstanceClasses>(read_instance_classes(classes));
 
   if (fs::is_regular_file(folder_ / "groundtruth.txt", ec)) {
     groundtruth_ = read_tum_trajectory(folder_ / "groundtruth.txt");
@@ -191,9 +205,11 @@ std::optional<Frame> TumSource::next() {
   frame.depth_m = read_depth_image(depth_path, options_.depth_units_per_metre * depth_correction_);
   require_image_size(frame.depth_m, k.width, k.height, "depth image " + depth_path.string() + " (size of the colour image)");
   if (has_masks_) {
-    const fs::path mask_path = folder_ / "masks" / fs::path(a.rgb.file).filename();
+    const fs::path mask_path = mask_path_for(folder_, a.rgb.file);
     frame.mask = read_mask_image(mask_path);
     require_image_size(frame.mask, k.width, k.height, "mask image " + mask_path.string() + " (size of the colour image)");
+    if (mask_classes_) require_mask_ids_classified(frame.mask, *mask_classes_, mask_path);
+    frame.mask_classes = mask_classes_;
   }
   frame.T_world_camera_gt = pose_at(groundtruth_, frame.timestamp_s, options_.max_groundtruth_dt_s);
   ++next_;
@@ -205,7 +221,7 @@ std::string TumSource::describe() const {
                   intrinsics_.origin + ": " + intrinsics_.intrinsics.to_string();
   if (depth_correction_ != 1.0) s += ", " + depth_correction_label(depth_correction_, depth_correction_origin_);
   if (!groundtruth_.empty()) s += ", ground truth";
-  if (has_masks_) s += ", masks";
+  if (has_masks_) s += mask_classes_ ? ", masks with classes" : ", masks";
   return s + ")";
 }
 

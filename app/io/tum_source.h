@@ -1,8 +1,11 @@
 #pragma once
 // TUM RGB-D benchmark folders: rgb.txt/depth.txt (or associations.txt), 8-bit colour PNGs, 16-bit
-// depth PNGs (5000 units per metre), optional groundtruth.txt, optional masks/ (16-bit instance
-// ids named like the colour files, as the synthetic generator writes them) and calibration.txt.
+// depth PNGs (5000 units per metre), optional groundtruth.txt, optional masks/ (8- or 16-bit
+// instance ids named like the colour files, as the synthetic generator writes them; always PNG:
+// rgb/x.jpg has masks/x.png) with an optional masks/classes.txt (io/instance_classes.h), and
+// calibration.txt.
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -69,6 +72,7 @@ class TumSource : public FrameSource {
   std::vector<TumAssociation> frames_;
   Trajectory groundtruth_;  // sorted by time; empty without groundtruth.txt
   bool has_masks_ = false;
+  std::shared_ptr<const InstanceClasses> mask_classes_;  // masks/classes.txt; null without one
   std::string pairing_;     // "associations.txt" or "rgb.txt/depth.txt matched by time"
   std::size_t next_ = 0;
 };

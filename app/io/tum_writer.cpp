@@ -40,6 +40,7 @@ void TumFolderWriter::write(const Frame& frame) {
   if (has_mask) {
     if (frame.mask.type() != CV_16UC1) throw Error(where + ": mask is not CV_16UC1");
     require_image_size(frame.mask, intrinsics_.width, intrinsics_.height, where + " mask");
+    keep_mask_classes(frame, where);
   }
 
   char stamp[64];
@@ -57,8 +58,19 @@ void TumFolderWriter::write(const Frame& frame) {
   ++frames_;
 }
 
+void TumFolderWriter::keep_mask_classes(const Frame& frame, const std::string& where) {
+  if (!frame.mask_classes) return;
+  if (!mask_classes_) {
+    mask_classes_ = frame.mask_classes;
+  } else if (frame.mask_classes != mask_classes_ && frame.mask_classes->name_by_id != mask_classes_->name_by_id) {
+    throw Error(where + ": its mask class table (" + frame.mask_classes->origin + ") differs from earlier frames' (" +
+                mask_classes_->origin + ")");
+  }
+}
+
 void TumFolderWriter::finish() {
   if (frames_ == 0) throw Error("TUM output " + dir_.string() + ": no frames were written");
+  if (mask_classes_) write_instance_classes(dir_ / "masks" / kInstanceClassesFile, *mask_classes_);
   write_text_atomically(dir_ / "rgb.txt", rgb_list_);
   write_text_atomically(dir_ / "depth.txt", depth_list_);
   write_text_atomically(dir_ / "associations.txt", associations_);

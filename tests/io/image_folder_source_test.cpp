@@ -107,6 +107,81 @@ TEST(ImageFolderSource, DepthScaleOption) {
   EXPECT_NEAR(f->depth_m.at<float>(3, 4), frames[0].depth_m.at<float>(3, 4) / 5.0f, 1e-6);
 }
 
+TEST(ImageFolderSource, MasksWithAClassTable) {
+  const fs::path dir = test::fresh_temp_dir();
+  write_folder(dir, 2);
+  cv::Mat mask8(16, 24, CV_8UC1, cv::Scalar(0));
+  mask8(cv::Rect(0, 0, 4, 4)).setTo(3);
+  test::write_png(dir / "masks" / "m1.png", mask8);
+  cv::Mat mask16(16, 24, CV_16UC1, cv::Scalar(0));
+  mask16(cv::Rect(0, 0, 4, 4)).setTo(1000);
+  test::write_png(dir / "masks" / "m2.png", mask16);
+  test::write_text(dir / "masks" / "classes.txt", "# instance classes\n3 cup\n1000 teddy_bear\n");
+
+  ImageFolderSource source(dir);
+  EXPECT_EQ(source.size(), 2) << "classes.txt is not a mask";
+  EXPECT_THAT(source.describe(), HasSubstr("masks with classes"));
+  auto f0 = source.next();
+  ASSERT_TRUE(f0);
+  EXPECT_EQ(f0->mask.at<std::uint16_t>(1, 1), 3);
+  ASSERT_TRUE(f0->mask_classes);
+  ASSERT_NE(f0->mask_classes->find(3), nullptr);
+  EXPECT_EQ(*f0->mask_classes->find(3), "cup");
+  auto f1 = source.next();
+  ASSERT_TRUE(f1);
+  EXPECT_EQ(f1->mask.at<std::uint16_t>(1, 1), 1000);
+  EXPECT_EQ(*f1->mask_classes->find(1000), "teddy_bear");
+  EXPECT_EQ(f1->mask_classes.get(), f0->mask_classes.get());
+}
+
+TEST(ImageFolderSource, BadMasksNameTheFile) {
+  const fs::path dir = test::fresh_temp_dir();
+  write_folder(dir, 2);
+  test::write_png(dir / "masks" / "m1.png", cv::Mat(16, 24, CV_8UC1, cv::Scalar(1)));
+  const fs::path mask2 = dir / "masks" / "m2.png";
+  cv::Mat unlisted(16, 24, CV_8UC1, cv::Scalar(1));
+  unlisted.at<std::uint8_t>(2, 3) = 9;
+  test::write_png(mask2, unlisted);
+  const fs::path classes = dir / "masks" / "classes.txt";
+  test::write_text(classes, "1 box\n");
+  const auto second_frame_error = [&] {
+    ImageFolderSource source(dir);
+    EXPECT_TRUE(source.next());
+    return error_of([&] { source.next(); });
+  };
+  std::string msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask2.string()));
+  EXPECT_THAT(msg, HasSubstr("id 9"));
+
+  test::write_png(mask2, cv::Mat(16, 24, CV_16UC3, cv::Scalar(1, 1, 1)));
+  msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask2.string()));
+  EXPECT_THAT(msg, HasSubstr("16UC3"));
+
+  test::write_png(mask2, cv::Mat(8, 12, CV_8UC1, cv::Scalar(1)));
+  msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask2.string()));
+  EXPECT_THAT(msg, HasSubstr("12x8, expected 24x16"));
+
+  // Masks must be lossless: a JPEG's ids are not what was stored.
+  fs::remove(mask2);
+  const fs::path jpeg = dir / "masks" / "m2.jpg";
+  cv::imwrite(jpeg.string(), cv::Mat(16, 24, CV_8UC1, cv::Scalar(1)));
+  msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(jpeg.string()));
+  EXPECT_THAT(msg, HasSubstr("lossless"));
+  fs::remove(jpeg);
+
+  // One mask too few; a class line with a third word.
+  msg = error_of([&] { ImageFolderSource s(dir); });
+  EXPECT_THAT(msg, HasSubstr("1 masks"));
+  test::write_png(mask2, cv::Mat(16, 24, CV_8UC1, cv::Scalar(1)));
+  test::write_text(classes, "1 box extra\n");
+  msg = error_of([&] { ImageFolderSource s(dir); });
+  EXPECT_THAT(msg, HasSubstr(classes.string() + ":1"));
+  EXPECT_THAT(msg, HasSubstr("expected 'id class_name'"));
+}
+
 TEST(ImageFolderSource, MismatchesNameTheFolderOrFile) {
   const fs::path dir = test::fresh_temp_dir();
   write_folder(dir, 3);

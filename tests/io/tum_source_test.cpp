@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
@@ -36,13 +37,14 @@ struct TumFixture {
   std::vector<Frame> frames;
 };
 
-TumFixture write_tum_fixture(int n, bool associations, double t0 = 100.0) {
+// `rgb_extension`: ".png" (lossless) or e.g. ".jpg".
+TumFixture write_tum_fixture(int n, bool associations, double t0 = 100.0, const std::string& rgb_extension = ".png") {
   TumFixture fx{test::fresh_temp_dir(), {}};
   std::string rgb_txt = "# color images\n", depth_txt = "# depth maps\n", assoc;
   for (int i = 0; i < n; ++i) {
     const double t = t0 + i / 30.0;
     Frame f = test::make_test_frame(32, 24, i, t);
-    const std::string rgb_name = "rgb/" + stamp(t) + ".png", depth_name = "depth/" + stamp(t + 0.005) + ".png";
+    const std::string rgb_name = "rgb/" + stamp(t) + rgb_extension, depth_name = "depth/" + stamp(t + 0.005) + ".png";
     test::write_bgr_png(fx.dir / rgb_name, f.rgb);
     test::write_png(fx.dir / depth_name, test::depth_units(f.depth_m, 5000));
     rgb_txt += stamp(t) + " " + rgb_name + "\n";
@@ -160,6 +162,113 @@ TEST(TumSource, MasksFolderGivesMasks) {
 
   fs::remove(fx.dir / "masks" / (stamp(fx.frames[1].timestamp_s) + ".png"));
   EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(stamp(fx.frames[1].timestamp_s) + ".png"));
+}
+
+// masks/<stamp>.png of frame `i` of the fixture.
+fs::path mask_file(const TumFixture& fx, int i) {
+  return fx.dir / "masks" / (stamp(fx.frames[static_cast<std::size_t>(i)].timestamp_s) + ".png");
+}
+
+TEST(TumSource, MasksOf8And16BitsWithAClassTable) {
+  auto fx = write_tum_fixture(2, true);
+  cv::Mat mask8(24, 32, CV_8UC1, cv::Scalar(0));
+  mask8(cv::Rect(0, 0, 4, 4)).setTo(1);
+  mask8(cv::Rect(10, 10, 4, 4)).setTo(2);
+  test::write_png(mask_file(fx, 0), mask8);
+  cv::Mat mask16(24, 32, CV_16UC1, cv::Scalar(0));
+  mask16(cv::Rect(4, 4, 8, 8)).setTo(300);
+  test::write_png(mask_file(fx, 1), mask16);
+  test::write_text(fx.dir / "masks" / "classes.txt",
+                   "# id class_name\n1 box\n\n2 can   # a trailing comment\n300 person\n");
+
+  TumSource source(fx.dir);
+  EXPECT_THAT(source.describe(), HasSubstr("masks with classes"));
+  auto f0 = source.next();
+  ASSERT_TRUE(f0);
+  ASSERT_EQ(f0->mask.type(), CV_16UC1);
+  EXPECT_EQ(f0->mask.at<std::uint16_t>(1, 1), 1);
+  EXPECT_EQ(f0->mask.at<std::uint16_t>(11, 11), 2);
+  EXPECT_EQ(f0->mask.at<std::uint16_t>(20, 20), 0);
+  ASSERT_TRUE(f0->mask_classes);
+  const std::map<std::uint16_t, std::string> expected{{1, "box"}, {2, "can"}, {300, "person"}};
+  EXPECT_EQ(f0->mask_classes->name_by_id, expected);
+  auto f1 = source.next();
+  ASSERT_TRUE(f1);
+  EXPECT_EQ(f1->mask.at<std::uint16_t>(5, 5), 300);
+  EXPECT_EQ(f1->mask_classes.get(), f0->mask_classes.get()) << "the table is read once per source";
+
+  // Without classes.txt the frames carry masks but no table.
+  fs::remove(fx.dir / "masks" / "classes.txt");
+  TumSource plain(fx.dir);
+  EXPECT_THAT(plain.describe(), ::testing::Not(HasSubstr("classes")));
+  auto g = plain.next();
+  ASSERT_TRUE(g);
+  EXPECT_FALSE(g->mask.empty());
+  EXPECT_FALSE(g->mask_classes);
+}
+
+TEST(TumSource, JpegColourImagesHavePngMasksOfTheSameStem) {
+  auto fx = write_tum_fixture(2, true, 100.0, ".jpg");
+  for (int i = 0; i < 2; ++i) test::write_png(mask_file(fx, i), cv::Mat(24, 32, CV_8UC1, cv::Scalar(i + 1)));
+  TumSource source(fx.dir);
+  for (int i = 0; i < 2; ++i) {
+    auto f = source.next();
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->rgb.type(), CV_8UC3);
+    EXPECT_EQ(f->mask.at<std::uint16_t>(3, 3), i + 1);
+  }
+  // A lossy mask beside the jpg is not taken: the .png is what must exist.
+  fs::rename(mask_file(fx, 1), fs::path(mask_file(fx, 1)).replace_extension(".jpg"));
+  EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(mask_file(fx, 1).string()));
+}
+
+TEST(TumSource, BadMasksAndClassTablesNameTheFile) {
+  auto fx = write_tum_fixture(2, true);
+  const cv::Mat good(24, 32, CV_16UC1, cv::Scalar(1));
+  const fs::path mask1 = mask_file(fx, 1);
+  test::write_png(mask_file(fx, 0), good);
+  // Reads frame 1 after a good frame 0 and returns the error.
+  const auto second_frame_error = [&] {
+    TumSource source(fx.dir);
+    EXPECT_TRUE(source.next());
+    return error_of([&] { source.next(); });
+  };
+
+  test::write_png(mask1, cv::Mat(12, 16, CV_16UC1, cv::Scalar(1)));
+  std::string msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask1.string()));
+  EXPECT_THAT(msg, HasSubstr("16x12, expected 32x24"));
+
+  test::write_png(mask1, cv::Mat(24, 32, CV_8UC3, cv::Scalar(1, 1, 1)));
+  msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask1.string()));
+  EXPECT_THAT(msg, HasSubstr("8UC3"));
+
+  test::write_text(mask1, "not a png");
+  msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask1.string()));
+  EXPECT_THAT(msg, HasSubstr("cannot be decoded"));
+
+  // An id the class table does not list: the mask file and the id are named.
+  cv::Mat unlisted = good.clone();
+  unlisted.at<std::uint16_t>(5, 7) = 7;
+  test::write_png(mask1, unlisted);
+  const fs::path classes = fx.dir / "masks" / "classes.txt";
+  test::write_text(classes, "1 box\n");
+  msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask1.string()));
+  EXPECT_THAT(msg, HasSubstr("id 7"));
+  EXPECT_THAT(msg, HasSubstr(classes.string()));
+
+  // A class table line that does not parse fails when the source opens.
+  test::write_text(classes, "# ok\n1 box\ntwo can\n");
+  msg = error_of([&] { TumSource s(fx.dir); });
+  EXPECT_THAT(msg, HasSubstr(classes.string() + ":3"));
+  EXPECT_THAT(msg, HasSubstr("'two'"));
+
+  // Count mismatch: a frame without its mask.
+  fs::remove(mask1);
+  EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(mask1.string()));
 }
 
 TEST(TumSource, IntrinsicsOptionAndDefaults) {

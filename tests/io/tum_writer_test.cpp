@@ -80,6 +80,38 @@ TEST(TumWriter, RoundTripThroughTumSource) {
   EXPECT_EQ(matched.size(), 4);
 }
 
+TEST(TumWriter, ClassTableOfTheMasksRoundTrips) {
+  auto frames = frames_with_gt_and_masks(3);
+  auto classes = std::make_shared<InstanceClasses>();
+  classes->name_by_id = {{1000, "box"}, {1001, "can"}, {1002, "ball"}};
+  for (Frame& f : frames) f.mask_classes = classes;
+  const fs::path dir = test::fresh_temp_dir() / "out";
+  MemorySource source(frames, small_intrinsics());
+  EXPECT_EQ(write_tum_folder(source, dir), 3);
+  ASSERT_TRUE(fs::is_regular_file(dir / "masks" / "classes.txt"));
+  EXPECT_EQ(read_instance_classes(dir / "masks" / "classes.txt").name_by_id, classes->name_by_id);
+  TumSource back(dir);
+  auto f = back.next();
+  ASSERT_TRUE(f);
+  ASSERT_TRUE(f->mask_classes);
+  EXPECT_EQ(f->mask_classes->name_by_id, classes->name_by_id);
+
+  // Frames without a table give no classes.txt; a frame whose table differs is rejected.
+  const fs::path plain = test::fresh_temp_dir() / "plain";
+  MemorySource no_tables(frames_with_gt_and_masks(2), small_intrinsics());
+  write_tum_folder(no_tables, plain);
+  EXPECT_FALSE(fs::exists(plain / "masks" / "classes.txt"));
+  TumFolderWriter writer(test::fresh_temp_dir() / "mixed", small_intrinsics());
+  writer.write(frames[0]);
+  auto other = std::make_shared<InstanceClasses>(*classes);
+  other->name_by_id[1001] = "cup";
+  other->origin = "other/classes.txt";
+  frames[1].mask_classes = other;
+  const std::string msg = error_of([&] { writer.write(frames[1]); });
+  EXPECT_THAT(msg, HasSubstr("frame 1"));
+  EXPECT_THAT(msg, HasSubstr("other/classes.txt"));
+}
+
 TEST(TumWriter, RejectsBadFramesNamingThem) {
   const fs::path dir = test::fresh_temp_dir();
   auto frames = frames_with_gt_and_masks(3);
