@@ -2,6 +2,7 @@
 // Writes a synthetic sequence to disk as a TUM RGB-D folder (io/tum_writer.h) plus the extra
 // ground truth:
 //   rgb/<t>.png  depth/<t>.png (16-bit, 5000 units per metre)  masks/<t>.png (16-bit instance ids)
+//   masks/classes.txt (id class_name: each object's "class")
 //   rgb.txt  depth.txt  associations.txt  groundtruth.txt (T_world_camera)
 //   groundtruth-<id>.txt (T_world_object, frames where object <id> is present)
 //   objects.txt (id name shape first_frame last_frame)  calibration.txt (fx fy cx cy width height)

@@ -9,6 +9,7 @@
 
 #include "common/error.h"
 #include "embedded_assets.h"
+#include "io/instance_classes.h"
 #include "synthetic/motion.h"
 
 namespace cofusion::synthetic {
@@ -131,6 +132,19 @@ class Node {
   const std::string& origin_;
   mutable std::set<std::string> used_;
 };
+
+// The object's semantic class: required (generated datasets write it to masks/classes.txt), one
+// word so the class table's "id class_name" lines stay parseable.
+std::string parse_class(const Node& n, const std::string& object_name) {
+  if (!n.has("class"))
+    n.fail("class", "missing field: object '" + object_name +
+                        "' needs a class (one word, e.g. \"box\", \"can\", \"ball\", \"arm\", \"person\")");
+  std::string class_name = n.string("class");
+  if (!is_class_name(class_name))
+    n.fail("class", "object '" + object_name + "': class '" + class_name +
+                        "' must be one non-empty word of printable characters (use '_' for spaces)");
+  return class_name;
+}
 
 Eigen::Vector3f parse_color(const Node& n, const std::string& key, const json& v) {
   const std::string what = "expected colours as [r, g, b] with values 0..255";
@@ -409,6 +423,7 @@ SceneDescription parse_scene(std::string_view json_text, const std::string& orig
     for (const Node& n : top.array_of_objects("objects")) {
       ObjectDesc d;
       d.name = n.string("name", "object-" + std::to_string(s.objects.size() + 1));
+      d.class_name = parse_class(n, d.name);
       d.shape = parse_shape(n);
       d.texture = texture_or(n, "texture", plain(128, 128, 128));
       if (n.has("pose") == n.has("keyframes")) n.fail_here("give exactly one of 'pose' and 'keyframes'");

@@ -19,7 +19,7 @@
 //     "table": {"position": [x,y], "yaw_deg": 0, "top_size": [sx,sy], "height_m": 0.75,
 //               "top_thickness_m": 0.04, "legs": true, "leg_width_m": 0.06, "texture": TEX, "leg_texture": TEX},
 //     "static":  [ {"name": "...", SHAPE, "texture": TEX, "pose": POSE} ],
-//     "objects": [ {"name": "...", SHAPE, "texture": TEX, "present_frames": [first, last],
+//     "objects": [ {"name": "...", "class": "box", SHAPE, "texture": TEX, "present_frames": [first, last],
 //                   "interpolation": "linear" | "smooth", "keyframes": [ KEY, ... ] (or "pose": POSE)} ]
 //   }
 //   SHAPE: "shape": "box", "size": [sx,sy,sz] | "shape": "sphere", "radius": r
@@ -122,6 +122,7 @@ struct StaticDesc {
 // A rigid object with its own instance id (1-based position in SceneDescription::objects).
 struct ObjectDesc {
   std::string name;
+  std::string class_name;         // semantic class ("box", "can", "person", ...), required, one word
   ShapeDesc shape;
   TextureDesc texture;
   KeyframedPath path;             // T_world_object over time

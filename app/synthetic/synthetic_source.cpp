@@ -16,6 +16,11 @@ SyntheticSequence::SyntheticSequence(SceneDescription scene, unsigned seed, std:
     if (*max_frames < 0) throw Error(scene_.origin + ": max_frames must be >= 0");
     frames_ = std::min(frames_, *max_frames);
   }
+  auto classes = std::make_shared<InstanceClasses>();
+  classes->origin = "scene " + scene_.origin;
+  for (int id = 1; id <= object_count(); ++id)
+    classes->name_by_id[static_cast<std::uint16_t>(id)] = scene_.objects[id - 1].class_name;
+  mask_classes_ = std::move(classes);
 }
 
 void SyntheticSequence::check_frame(int frame) const {
@@ -39,7 +44,7 @@ std::vector<ObjectInfo> SyntheticSequence::objects() const {
   std::vector<ObjectInfo> out;
   for (int id = 1; id <= object_count(); ++id) {
     const ObjectDesc& d = scene_.objects[id - 1];
-    out.push_back({id, d.name, d.shape.shape, d.first_frame, std::min(d.last_frame, frames_ - 1)});
+    out.push_back({id, d.name, d.class_name, d.shape.shape, d.first_frame, std::min(d.last_frame, frames_ - 1)});
   }
   return out;
 }
@@ -72,6 +77,7 @@ Frame SyntheticSequence::frame(int index) const {
   f.rgb = r.rgb;
   f.depth_m = r.depth_m;
   f.mask = r.instance_ids;
+  f.mask_classes = mask_classes_;
   f.intrinsics = intrinsics();
   f.T_world_camera_gt = T_world_camera(index);
   return f;

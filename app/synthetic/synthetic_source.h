@@ -20,6 +20,7 @@ namespace cofusion::synthetic {
 struct ObjectInfo {
   int id = 0;  // instance id in masks (1-based)
   std::string name;
+  std::string class_name;
   Shape shape = Shape::kBox;
   // Present in [first_frame, last_frame], clipped to the sequence (first > last: never present).
   int first_frame = 0, last_frame = 0;
@@ -44,13 +45,15 @@ class SyntheticSequence {
   Pose T_world_camera(int frame) const;
   std::vector<ObjectInfo> objects() const;
   int object_count() const { return static_cast<int>(scene_.objects.size()); }
+  // Instance id -> the object's class, for every object (shared by all frames).
+  const std::shared_ptr<const InstanceClasses>& mask_classes() const { return mask_classes_; }
   // T_world_object of object `id` (1-based) at `frame`, or nullopt when it is absent then.
   std::optional<Pose> T_world_object(int id, int frame) const;
 
   // Colour, noisy and true depth, instance ids (and surface points on request) of one frame.
   RenderedFrame render(int frame, bool surface_points = false) const;
-  // The frame as a FrameSource delivers it: rgb, noisy depth_m, instance-id mask, intrinsics,
-  // T_world_camera_gt.
+  // The frame as a FrameSource delivers it: rgb, noisy depth_m, instance-id mask with the class
+  // table, intrinsics, T_world_camera_gt.
   Frame frame(int frame) const;
 
   // Distance (metres) from p to the visible surface of object `id`, p in that object's frame; id 0:
@@ -77,6 +80,7 @@ class SyntheticSequence {
   int frames_ = 0;
   unsigned seed_ = 1;
   KinectNoiseParams noise_;
+  std::shared_ptr<const InstanceClasses> mask_classes_;
 };
 
 // FrameSource over a SyntheticSequence, rendering each frame when it is asked for.

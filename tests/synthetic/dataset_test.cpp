@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "common/error.h"
 #include "io/image_io.h"
 #include "io/trajectory.h"
+#include "io/tum_source.h"
 #include "support/test_support.h"
 #include "synthetic/dataset_writer.h"
 #include "synthetic/gltf_export.h"
@@ -132,6 +134,23 @@ TEST(SyntheticDataset, WritesATumFolderWithGroundTruth) {
   const auto objects = data_lines(out / "objects.txt");
   ASSERT_EQ(objects.size(), 3u);
   EXPECT_EQ(objects[0], "1 cube box 0 2");
+  // Each object's "class" from the scene, by instance id, read back with the masks.
+  EXPECT_EQ(data_lines(out / "masks" / "classes.txt"), (std::vector<std::string>{"1 box", "2 arm", "3 arm"}));
+  TumSource back(out);
+  const auto frame = back.next();
+  ASSERT_TRUE(frame);
+  ASSERT_TRUE(frame->mask_classes);
+  EXPECT_EQ(frame->mask_classes->name_by_id, seq.mask_classes()->name_by_id);
+}
+
+TEST(SyntheticSequence, FramesCarryEachObjectsClass) {
+  SyntheticSequence seq(load_scene("table_placement"), 0, 1);
+  const std::map<std::uint16_t, std::string> expected{{1, "box"}, {2, "can"}, {3, "ball"}};
+  ASSERT_TRUE(seq.mask_classes());
+  EXPECT_EQ(seq.mask_classes()->name_by_id, expected);
+  const Frame f = seq.frame(0);
+  EXPECT_EQ(f.mask_classes.get(), seq.mask_classes().get());
+  EXPECT_EQ(seq.objects()[1].class_name, "can");
 }
 
 TEST(SyntheticDataset, RefusesANonEmptyTargetUnlessOverwriting) {

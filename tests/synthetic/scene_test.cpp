@@ -24,7 +24,7 @@ json minimal_scene() {
     "frames": 10,
     "camera": {"keyframes": [{"frame": 0, "position": [0, 0, 1], "look_at": [1, 0, 1]}]},
     "room": {"size": [4, 4, 3]},
-    "objects": [{"name": "cube", "shape": "box", "size": [0.1, 0.1, 0.1],
+    "objects": [{"name": "cube", "class": "box", "shape": "box", "size": [0.1, 0.1, 0.1],
                  "texture": {"type": "checker", "colors": [[255, 0, 0], [0, 0, 255]]},
                  "keyframes": [{"frame": 0, "position": [1, 0, 1]}, {"frame": 9, "position": [1, 0.2, 1]}]}]
   })");
@@ -70,6 +70,7 @@ TEST(SyntheticScene, LoadsFromAFilePath) {
   EXPECT_EQ(s.frames, 10);
   ASSERT_EQ(s.objects.size(), 1u);
   EXPECT_EQ(s.objects[0].name, "cube");
+  EXPECT_EQ(s.objects[0].class_name, "box");
   EXPECT_EQ(s.objects[0].texture.type, TextureType::kChecker);
   EXPECT_FLOAT_EQ(s.objects[0].texture.colors[1].z(), 255.0f);
 }
@@ -110,6 +111,9 @@ TEST(SyntheticScene, ErrorsNameTheFileAndField) {
       {[](json& j) { j["noise"] = "loud"; }, "noise: expected true, false or an object"},
       {[](json& j) { j["noise"] = {{"edge_drop_probability", 2}}; }, "noise.edge_drop_probability: must be in [0, 1]"},
       {[](json& j) { j["objects"][0]["present_frames"] = json::array({5, 2}); }, "objects[0].present_frames"},
+      {[](json& j) { j["objects"][0].erase("class"); }, "objects[0].class: missing field: object 'cube' needs a class"},
+      {[](json& j) { j["objects"][0]["class"] = "teddy bear"; }, "objects[0].class: object 'cube': class 'teddy bear'"},
+      {[](json& j) { j["objects"][0]["class"] = 3; }, "objects[0].class: expected a string"},
       {[](json& j) { j["room"]["size"] = json::array({4, 4}); }, "room.size: expected an array of 3 numbers"},
       {[](json& j) { j["tabel"] = json::object(); }, "tabel: unknown field"},
   };
