@@ -16,6 +16,10 @@ ModelBox bounding_box(const SurfelCloud& cloud) {
   return box;
 }
 
+std::string model_label(int model_id, const std::string& class_name) {
+  return class_name.empty() ? std::to_string(model_id) : std::to_string(model_id) + " " + class_name;
+}
+
 void draw_line(Image& image, int x0, int y0, int x1, int y1, uint32_t rgba8) {
   const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
   const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
@@ -114,6 +118,25 @@ void draw_text(Image& image, int x, int y, std::string_view text, uint32_t rgba8
   }
 }
 
+namespace {
+// The label just above the highest of the box's corners in front of the camera, left-aligned on it.
+void draw_box_label(Image& image, const VirtualCamera& camera, const std::array<Eigen::Vector3d, 8>& corners_world,
+                    const std::string& label, uint32_t rgba8, double near_m = 0.01) {
+  const Eigen::Isometry3d T_view_world = camera.T_world_view.inverse();
+  const auto& K = camera.intrinsics;
+  std::optional<Eigen::Vector2d> top;
+  for (const auto& corner_world : corners_world) {
+    const Eigen::Vector3d p = T_view_world * corner_world;
+    if (!p.allFinite() || p.z() < near_m) continue;
+    const Eigen::Vector2d px(K.fx * p.x() / p.z() + K.cx, K.fy * p.y() / p.z() + K.cy);
+    if (!top || px.y() < top->y()) top = px;
+  }
+  if (!top || !top->allFinite() || std::abs(top->x()) > 1e6 || std::abs(top->y()) > 1e6) return;
+  draw_text(image, static_cast<int>(std::lround(top->x())), static_cast<int>(std::lround(top->y())) - kLineHeightPx,
+            label, rgba8, 1);
+}
+}  // namespace
+
 void draw_overlay(Image& image, const VirtualCamera& camera, const Overlay& overlay) {
   for (size_t i = 1; i < overlay.trajectory_world.size(); ++i)
     draw_world_line(image, camera, overlay.trajectory_world[i - 1], overlay.trajectory_world[i],
@@ -127,6 +150,7 @@ void draw_overlay(Image& image, const VirtualCamera& camera, const Overlay& over
     for (int k = 0; k < 8; ++k)
       for (int bit = 1; bit < 8; bit <<= 1)
         if (!(k & bit)) draw_world_line(image, camera, corners[k], corners[k | bit], model_colour(box.model_id));
+    if (!box.label.empty()) draw_box_label(image, camera, corners, box.label, model_colour(box.model_id));
   }
   if (overlay.T_world_camera) {
     const auto& K = overlay.camera_intrinsics;

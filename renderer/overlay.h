@@ -21,9 +21,13 @@ struct ModelBox {
   int model_id = 0;
   Eigen::Isometry3d T_world_model = Eigen::Isometry3d::Identity();
   Eigen::AlignedBox3d bounds_model;  // empty boxes are not drawn
+  // Drawn in the box's colour above its highest corner in the view, e.g. "3 cup"; empty = none.
+  std::string label;
 };
-// The bounding box of a cloud's surfel centres (empty when it has none).
+// The bounding box of a cloud's surfel centres (empty when it has none), without a label.
 ModelBox bounding_box(const SurfelCloud& cloud);
+// A box's label: the model id and, when known, its class ("3 cup", or "3").
+std::string model_label(int model_id, const std::string& class_name);
 
 // A small picture pasted along the bottom edge of the view (the live RGB, depth, segmentation),
 // scaled by nearest neighbour to Overlay::inset_height_px, with a label above it.

@@ -13,6 +13,7 @@
 #include "commands/sources.h"
 #include "commands/stage_timer.h"
 #include "io/atomic_file.h"
+#include "io/instance_classes.h"
 #include "export/model_export.h"
 #include "io/trajectory.h"
 #include "renderer/overlay.h"
@@ -80,6 +81,18 @@ void check_frame(const Frame& frame, const Intrinsics& intrinsics) {
   if (valid == 0)
     throw Error("frame " + std::to_string(frame.index) + " (t=" + std::to_string(frame.timestamp_s) +
                 "): no valid depth reading (all zero or NaN)");
+}
+
+// segmentation/classes.txt: the class of every model the run ended with, by the model id its label
+// images carry (models deleted or merged away before the end are not listed).
+void write_segmentation_classes(const fs::path& path, const std::vector<slam::ModelSnapshot>& snapshots) {
+  InstanceClasses classes;
+  for (const auto& m : snapshots) {
+    if (m.id < 0 || m.id >= 0xFFFF)
+      throw Error("model id " + std::to_string(m.id) + " does not fit a 16-bit label image");
+    classes.name_by_id[static_cast<std::uint16_t>(m.id)] = class_name_token(m.class_name);
+  }
+  write_instance_classes(path, classes);
 }
 
 void run(const RunOptions& o) {
@@ -161,8 +174,11 @@ void run(const RunOptions& o) {
   };
   const auto boxes = [](const std::vector<SurfelCloud>& models) {
     std::vector<renderer::ModelBox> out;
-    for (const auto& cloud : models)
-      if (!cloud.surfels.empty()) out.push_back(renderer::bounding_box(cloud));
+    for (const auto& cloud : models) {
+      if (cloud.surfels.empty()) continue;
+      out.push_back(renderer::bounding_box(cloud));
+      out.back().label = renderer::model_label(cloud.model_id, cloud.class_name);
+    }
     return out;
   };
   std::string status;
@@ -255,6 +271,7 @@ void run(const RunOptions& o) {
       trajectory.push_back({timestamps.at(static_cast<size_t>(frame_index)), T_world_model});
     write_tum_trajectory(out_dir / "trajectories" / ("model-" + std::to_string(m.id) + ".txt"), trajectory);
   }
+  if (o.save_segmentation) write_segmentation_classes(out_dir / "segmentation" / kInstanceClassesFile, snapshots);
   const std::vector<SurfelCloud> all_models = clouds(false);
   write_models(all_models, camera, out_dir);
   size_t total_surfels = 0;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "io/instance_classes.h"
+
 namespace cofusion {
 
 SurfelSelection select_surfels(const SurfelCloud& cloud, float min_confidence) {
@@ -33,7 +35,9 @@ std::string model_file_stem(const SurfelCloud& cloud) { return "model-" + std::t
 
 std::string model_display_name(const SurfelCloud& cloud) {
   std::string name = model_file_stem(cloud);
-  if (!cloud.class_name.empty()) name += " (" + cloud.class_name + ")";
+  // One token, like the file stem (e.g. "teddy bear" -> "model-2-teddy_bear"); the glTF extras
+  // keep the class as it is.
+  return cloud.class_name.empty() ? name : name + "-" + class_name_token(cloud.class_name);
   return name;
 }
 

@@ -23,7 +23,8 @@ SurfelSelection select_surfels(const SurfelCloud& cloud, float min_confidence);
 
 // "model-<id>": the file stem of a model's files and the start of its glTF node name.
 std::string model_file_stem(const SurfelCloud& cloud);
-// "model-<id>" or "model-<id> (<class>)" when the class is known.
+// The glTF node name: "model-<id>-<class>", e.g. "model-3-cup" (spaces in the class become '_'),
+// or "model-<id>" when the class is unknown (empty).
 std::string model_display_name(const SurfelCloud& cloud);
 
 }  // namespace cofusion

@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <fstream>
@@ -62,6 +63,57 @@ void expect_complete_output(const fs::path& out, int frames) {
   for (const char* f : {"models/model-0.glb", "models/model-0.ply", "scene.glb"}) EXPECT_TRUE(fs::exists(out / f)) << f;
   for (const auto& entry : fs::recursive_directory_iterator(out))
     EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp-"))) << "temporary file left behind";
+}
+
+// Lines of a text file that are neither empty nor comments.
+std::vector<std::string> data_lines(const fs::path& p) {
+  std::ifstream in(p);
+  std::vector<std::string> out;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') out.push_back(line);
+  return out;
+}
+
+// segmentation/classes.txt lists every model of summary.json as "id class" (one word per class).
+void expect_classes_of_summary_models(const fs::path& out) {
+  const auto summary = read_json(out / "summary.json");
+  std::vector<std::string> expected;
+  for (const auto& m : summary["models"]) {
+    std::string class_name = m["class"].get<std::string>();
+    std::replace(class_name.begin(), class_name.end(), ' ', '_');
+    expected.push_back(std::to_string(m["id"].get<int>()) + " " + class_name);
+  }
+  EXPECT_EQ(data_lines(out / "segmentation" / "classes.txt"), expected) << summary["models"].dump();
+}
+
+TEST(RunCommand, SaveSegmentationWritesTheModelsClasses) {
+  const fs::path out = fresh_temp_dir();
+  const Result r = run_cofusion(
+      "run --headless --input synthetic:static_room --save-segmentation --max-frames 2 --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(data_lines(out / "segmentation" / "classes.txt"), std::vector<std::string>{"0 background"});
+  expect_classes_of_summary_models(out);
+  // The background model's glTF node carries its class in its name.
+  std::ifstream glb(out / "models" / "model-0.glb", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(glb)), std::istreambuf_iterator<char>());
+  EXPECT_NE(bytes.find("\"model-0-background\""), std::string::npos);
+}
+
+TEST(GenerateCommand, WritesEachObjectsClassBesideTheMasks) {
+  const fs::path out = fresh_temp_dir() / "two";
+  const Result g = run_cofusion("generate two_objects --no-noise --max-frames 1 --output " + out.string());
+  ASSERT_EQ(g.exit_code, 0) << g.output;
+  EXPECT_EQ(data_lines(out / "masks" / "classes.txt"), (std::vector<std::string>{"1 box", "2 can"}));
+
+  // A scene object without a class fails, naming the file and the object.
+  nlohmann::json scene = nlohmann::json::parse(std::ifstream(source_dir() / "assets/scenes/two_objects.json"));
+  scene["objects"][1].erase("class");
+  const fs::path scene_file = fresh_temp_dir() / "classless.json";
+  std::ofstream(scene_file) << scene.dump(2);
+  const Result bad = run_cofusion("generate " + scene_file.string() + " --max-frames 1 --output " +
+                                  (fresh_temp_dir() / "never").string());
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.output, HasSubstr("classless.json: objects[1].class: missing field: object 'can'"));
 }
 
 TEST(RunCommand, StaticSyntheticRoomTracksWithinFiveMillimetres) {
@@ -139,7 +191,9 @@ TEST(RunCommand, MovingObjectsGetModelTrajectoriesSummaryAndLabelImagesSlow) {
   }
   int label_images = 0;
   bool object_labelled = false;
+  expect_classes_of_summary_models(out);
   for (const auto& entry : fs::directory_iterator(out / "segmentation")) {
+    if (entry.path().extension() != ".png") continue;  // classes.txt
     ++label_images;
     const cv::Mat labels = cv::imread(entry.path().string(), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(labels.type(), CV_16UC1) << entry.path();

@@ -87,7 +87,7 @@ TEST(GltfExport, GlbRoundTripMatchesSurfels) {
   ASSERT_EQ(doc.buffers.size(), 1u);
   EXPECT_TRUE(doc.buffers[0].uri.empty());  // GLB: the buffer is the BIN chunk
   const tinygltf::Node& node = doc.nodes[0];
-  EXPECT_EQ(node.name, "model-3 (cup)");
+  EXPECT_EQ(node.name, "model-3-cup");
   expect_matrix_is_pose(node, model.T_world_model);
   expect_points_match(doc, node, model.surfels);
   const tinygltf::Value& info = node.extras.Get("cofusion");
@@ -200,7 +200,7 @@ TEST(GltfExport, SceneHoldsEveryModelAndTheCameraTrajectory) {
   ASSERT_EQ(doc.nodes.size(), 4u);
   ASSERT_EQ(doc.scenes.at(0).nodes.size(), 4u);
   EXPECT_EQ(doc.nodes[0].name, "model-0");
-  EXPECT_EQ(doc.nodes[1].name, "model-2 (teddy bear)");
+  EXPECT_EQ(doc.nodes[1].name, "model-2-teddy_bear");
   EXPECT_EQ(doc.nodes[2].name, "model-5");
   EXPECT_EQ(doc.nodes[2].mesh, -1);
   for (int i = 0; i < 2; ++i) {

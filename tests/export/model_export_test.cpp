@@ -63,7 +63,7 @@ TEST(ModelExport, WritesEveryModelAsGlbAndPlyPlusScene) {
   }
   const tinygltf::Model scene = test::load_gltf(out / "scene.glb");
   ASSERT_EQ(scene.nodes.size(), 4u);
-  EXPECT_EQ(scene.nodes[1].name, "model-3 (cup)");
+  EXPECT_EQ(scene.nodes[1].name, "model-3-cup");
   EXPECT_EQ(scene.nodes[3].name, "camera-trajectory");
 }
 

@@ -92,6 +92,34 @@ TEST(Overlay, DrawsTrajectoryBoxesFrustumAndText) {
   EXPECT_TRUE(renderer::bounding_box(SurfelCloud{}).bounds_model.isEmpty());
 }
 
+TEST(Overlay, BoxLabelShowsIdAndClassAboveTheBox) {
+  EXPECT_EQ(renderer::model_label(3, "cup"), "3 cup");
+  EXPECT_EQ(renderer::model_label(3, ""), "3");
+  const auto scene = test_scene();
+  const auto cam = test_camera(160, 120);
+  const uint32_t bg = 0xFF102030u, colour = renderer::model_colour(1);
+  renderer::Overlay overlay;
+  overlay.boxes.push_back(renderer::bounding_box(scene[1]));
+  EXPECT_TRUE(overlay.boxes[0].label.empty());  // bounding_box() gives none: the caller names it
+  Image plain(160, 120, bg);
+  renderer::draw_overlay(plain, cam, overlay);
+  overlay.boxes[0].label = renderer::model_label(1, "ball");
+  Image labelled(160, 120, bg);
+  renderer::draw_overlay(labelled, cam, overlay);
+  // The text adds pixels in the box's colour and its shadow, all above the box's lowest line.
+  EXPECT_GT(count_colour(labelled, colour), count_colour(plain, colour) + 20);
+  EXPECT_GT(count_colour(labelled, kBlack), 20u);
+  EXPECT_EQ(count_colour(plain, kBlack), 0u);
+  int lowest_box_row = 0;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x)
+      if (plain.at(x, y) == colour) lowest_box_row = y;
+  int changed_below = 0;
+  for (int y = lowest_box_row; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) changed_below += labelled.at(x, y) != plain.at(x, y);
+  EXPECT_EQ(changed_below, 0);
+}
+
 TEST(Overlay, InsetsArePastedScaledAlongTheBottom) {
   Image view(320, 240, 0xFF000000u);
   Image inset(64, 48, 0xFF0000FFu);  // red
