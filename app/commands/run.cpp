@@ -134,7 +134,8 @@ void run(const RunOptions& o) {
   StageTimes times;
   Trajectory camera;
   std::vector<double> timestamps;  // per processed frame, for the model trajectories
-  std::vector<int> failed_frames;
+  std::vector<int> failed_frames;     // lost: camera tracking failed or not yet relocalised
+  std::vector<int> recovered_frames;  // relocalised after a loss
   std::vector<std::string> events;
   const auto start = std::chrono::steady_clock::now();
   int frames = 0;
@@ -216,10 +217,12 @@ void run(const RunOptions& o) {
     camera.push_back({frame->timestamp_s, r.T_world_camera});
     timestamps.push_back(frame->timestamp_s);
     T_world_camera_last = r.T_world_camera;
-    if (r.camera_tracking.failed) {
+    if (r.camera_state == slam::CameraState::kLost) {
       failed_frames.push_back(frame->index);
-      std::printf("%sframe %d: camera tracking failed (%s); pose not updated, frame not fused\n", tty ? "\n" : "",
-                  frame->index, r.camera_tracking.failure_reason.c_str());
+      std::printf("%sframe %d: camera lost (%s); pose not updated, frame not fused\n", tty ? "\n" : "", frame->index,
+                  r.camera_tracking.failure_reason.c_str());
+    } else if (r.camera_state == slam::CameraState::kRecovered) {
+      recovered_frames.push_back(frame->index);
     }
     for (const auto& e : r.events) {
       std::printf("%s%s\n", tty ? "\n" : "", e.c_str());
@@ -250,8 +253,8 @@ void run(const RunOptions& o) {
     }
     if (viewer) {
       char line[160];
-      std::snprintf(line, sizeof line, "frame %d  %.1f fps  models %zu  surfels %u", frames, frames / elapsed,
-                    r.active.size(), surfels);
+      std::snprintf(line, sizeof line, "frame %d  %.1f fps  models %zu  surfels %u  camera %s", frames,
+                    frames / elapsed, r.active.size(), surfels, slam::to_string(r.camera_state));
       status = line;
       show();
     }
@@ -296,6 +299,8 @@ void run(const RunOptions& o) {
   summary["input"] = source->describe();
   for (const auto& stage : times.stages()) summary["stages_ms"][stage] = times.mean(stage);
   summary["tracking_failures"] = failed_frames;
+  summary["camera"] = {{"lost_frames", failed_frames.size()}, {"recoveries", recovered_frames.size()},
+                       {"recovered_at", recovered_frames}};
   summary["models"] = nlohmann::json::array();
   for (size_t k = 0; k < snapshots.size(); ++k) {
     const auto& m = snapshots[k];

@@ -25,6 +25,8 @@ constexpr int kSlots = 32;        // the label masks are 32-bit
 // segmentation removed): nobody fuses them, but the background still tracks with them, so that a
 // burst of outliers (fast camera motion) cannot starve the camera's tracking.
 constexpr uint8_t kUnclaimedSlot = kSlots - 1;
+// Pixels of a non-rigid mover (LifecycleParams::mover_min_overlap): nobody fuses or tracks them.
+constexpr uint8_t kMoverSlot = kSlots - 2;
 // Model::slot of a model without a label slot: inactive, or merged away / deleted (pruned from the
 // list after the lifecycle step).
 constexpr int kInactiveSlot = -1;
@@ -63,6 +65,14 @@ void transform_surfels(std::vector<Surfel>& surfels, const Eigen::Isometry3d& T_
 }  // namespace
 
 const char* to_string(ModelState state) { return state == ModelState::kActive ? "active" : "inactive"; }
+const char* to_string(CameraState state) {
+  switch (state) {
+    case CameraState::kTracking: return "tracking";
+    case CameraState::kLost: return "lost";
+    case CameraState::kRecovered: return "recovered";
+  }
+  return "?";
+}
 
 // ---------------------------------------------------------------------------------------------
 struct CoFusion::Model {
@@ -113,7 +123,12 @@ struct CoFusion::Model {
   TrackingResult tracking;
   Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();       // T_reference_live of this frame
   Eigen::Isometry3d last_motion = Eigen::Isometry3d::Identity();  // previous frame's, the guess
+  // The live frame in the view its prediction was made from: the residuals' transform (`motion`,
+  // except after a relocalisation, which predicts from the recovered pose).
+  Eigen::Isometry3d T_prediction_live = Eigen::Isometry3d::Identity();
+  bool settled = false;  // its residuals are this frame's (else it has no costs this frame)
   int pixels = 0;
+  int rigidity_failures = 0;  // frames of its rigidity trial that counted against it
 
   // Its pose when it last covered a spawn-sized region and tracked (an object leaving the view is
   // tracked from fewer and fewer pixels at the border: that pose is the better guess when it
@@ -138,15 +153,27 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
       surfels_(ctx, preprocessor_),
       motion_(ctx),
       segmenter_(params.segmentation),
-      live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "live")) {
+      live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "live")),
+      keyframes_(params.relocalisation.keyframes) {
   for (const auto& [counts, name] : {std::pair{&params.slam.tracker.iterations_per_level, "tracker"},
                                       std::pair{&params.lifecycle.object_iterations_per_level,
                                                 "lifecycle.object_iterations_per_level"}})
     if (int(counts->size()) < params.slam.preprocess.pyramid_levels)
       throw Error(std::string(name) + " needs iterations for each of the " +
                   std::to_string(params.slam.preprocess.pyramid_levels) + " pyramid levels");
-  if (params.lifecycle.max_active_models < 1 || params.lifecycle.max_active_models > kSlots - 1)
-    throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kSlots - 1) + "]");
+  if (params.lifecycle.max_active_models < 1 || params.lifecycle.max_active_models > kMoverSlot)
+    throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kMoverSlot) + "]");
+  const RelocalisationParams& reloc = params.relocalisation;
+  if (reloc.candidate_keyframes < 0 || reloc.recent_frames < 1 || !(reloc.min_inlier_ratio_rel >= 0) ||
+      !(reloc.max_rms_rel > 0) || reloc.settle_frames < 0)
+    throw Error("relocalisation: candidate_keyframes and settle_frames must be >= 0, recent_frames >= 1, "
+                "min_inlier_ratio_rel >= 0, max_rms_rel > 0");
+  const LifecycleParams& life = params.lifecycle;
+  if (life.rigidity_trial_frames < 0 || life.rigidity_max_failures < 1 ||
+      !(life.rigid_min_explained_fraction >= 0 && life.rigid_min_explained_fraction <= 1) ||
+      !(life.mover_min_overlap > 0 && life.mover_min_overlap <= 1))
+    throw Error("lifecycle: rigidity_trial_frames must be >= 0, rigidity_max_failures >= 1, "
+                "rigid_min_explained_fraction in [0, 1], mover_min_overlap in (0, 1]");
   main_stream_.set_profile_group("frame");
   preprocess_ = params.slam.effective_preprocess();
   // Object trackers differ from the background's (the outline term reads the live gradients).
@@ -171,11 +198,18 @@ CoFusion::Model& CoFusion::create_model(int slot, const Eigen::Isometry3d& T_wor
   return m;
 }
 
+std::vector<CoFusion::Model*> CoFusion::live_models() const {
+  std::vector<Model*> active;
+  for (const auto& m : models_)
+    if (m->state == ModelState::kActive) active.push_back(m.get());
+  return active;
+}
+
 int CoFusion::free_slot(uint32_t taken) const {
   uint32_t used = taken;
   for (const auto& m : models_)
     if (m->state == ModelState::kActive) used |= 1u << m->slot;
-  for (int s = 0; s < kSlots - 1; ++s)
+  for (int s = 0; s < kMoverSlot; ++s)
     if (!(used & (1u << s))) return s;
   return -1;
 }
@@ -217,6 +251,93 @@ void CoFusion::track_model(Model& m) {
   m.motion = m.tracking.failed ? guess : m.tracking.T_reference_live;
 }
 
+// While the camera is lost nothing moves: every model keeps its world pose (its motion is the
+// camera's, which is none, or the relocalisation's), counts as failed (so nothing is fused) and has
+// no residuals.
+void CoFusion::hold_still(const std::vector<Model*>& active, const std::string& why) {
+  Model& bg = *active.front();
+  if (bg.tracking.failed) bg.motion = Eigen::Isometry3d::Identity();
+  for (Model* m : active) {
+    m->last_motion = Eigen::Isometry3d::Identity();
+    if (m->id == 0) continue;
+    m->motion = bg.motion;
+    m->tracked = true;
+    m->tracking = {};
+    m->tracking.failed = true;
+    m->tracking.failure_reason = why;
+  }
+}
+
+// Relocalisation of a lost camera (RelocalisationParams): the background tracked with every live
+// pixel from the last tracked pose and from the most similar keyframes' poses. On success the
+// background's motion takes the camera to the recovered pose and its residuals are computed there
+// (from a prediction at that pose), so this frame is segmented and fused; on failure the frame is
+// lost like the one before.
+bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding) {
+  const RelocalisationParams& p = params_.relocalisation;
+  std::vector<Eigen::Isometry3d> starts{T_world_camera_};  // T_world_camera
+  for (const Eigen::Isometry3d& T : keyframes_.nearest(encoding, p.candidate_keyframes)) starts.push_back(T);
+  PredictionParams prediction;
+  prediction.min_confidence = params_.slam.fusion.stable_confidence;
+  prediction.recent_window_frames = params_.slam.prediction_recent_window_frames;
+  const auto predict_at = [&](const Eigen::Isometry3d& T_world_view) {
+    const Eigen::Isometry3d T_view_model = T_world_view.inverse() * bg.surfels.T_world_model;
+    bg.stream.run([&](gpu::CommandList& c) { surfels_.predict(c, bg.surfels, T_view_model, bg.prediction, prediction, frame_); });
+  };
+  // What the camera's tracking achieved before the loss (medians of the recent frames).
+  const auto median = [&](auto field) {
+    std::vector<double> v;
+    for (const auto& r : recent_tracking_) v.push_back(field(r));
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double min_ratio = p.min_inlier_ratio_rel * median([](const auto& r) { return r.first; });
+  const double max_rms = recent_tracking_.empty() ? std::numeric_limits<double>::infinity()
+                                                  : p.max_rms_rel * median([](const auto& r) { return r.second; });
+  std::optional<std::pair<TrackingResult, Eigen::Isometry3d>> best;  // with T_world_live
+  TrackingResult failure;
+  failure.failed = true;
+  failure.failure_reason = "lost; relocalisation found no alignment";
+  for (const Eigen::Isometry3d& T_world_start : starts) {
+    predict_at(T_world_start);
+    TrackingResult r = bg.tracker.track(bg.stream, live_.levels, bg.prediction.levels, Eigen::Isometry3d::Identity());
+    // Once more from where it got to: tracking's statistics are those of its last iteration, which
+    // from a distant start is not converged yet (the finest level runs few iterations).
+    if (!r.failed) r = bg.tracker.track(bg.stream, live_.levels, bg.prediction.levels, r.T_reference_live);
+    if (!r.failed && (r.inlier_ratio < min_ratio || r.icp_rms_m > max_rms)) {
+      char why[160];
+      std::snprintf(why, sizeof why, "lost; a relocalisation reached inlier ratio %.3f (needs %.3f), RMS %.4f m (at most %.4f)",
+                    r.inlier_ratio, min_ratio, r.icp_rms_m, max_rms);
+      r.failed = true;
+      r.failure_reason = why;
+    }
+    if (r.failed) {
+      failure = r;
+      continue;
+    }
+    if (!best || r.inlier_ratio > best->first.inlier_ratio) best.emplace(r, T_world_start * r.T_reference_live);
+  }
+  bg.tracked = true;
+  if (!best) {
+    bg.tracking = failure;
+    hold_still(live_models(), failure.failure_reason);
+    return false;
+  }
+  const Eigen::Isometry3d T_world_live = orthonormalised(best->second);
+  bg.tracking = best->first;
+  bg.motion = T_world_camera_.inverse() * T_world_live;
+  hold_still(live_models(), "the camera was relocalised this frame");
+  lost_ = false;
+  last_recovery_frame_ = frame_;
+  if (params_.motion_segmentation) {
+    predict_at(T_world_live);
+    bg.T_prediction_live = Eigen::Isometry3d::Identity();
+    compute_residuals(bg);
+  }
+  return true;
+}
+
 // Once every model is tracked: an object whose pixels staying where it is in the world
 // (`camera_motion`, the background's) explains as well as its tracked motion stays (RestParams).
 // Then the per-pixel alignment cost of the model's motion over its residual rectangle (the
@@ -245,15 +366,21 @@ void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
       m.motion = camera_motion;
   }
   m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.motion;
-  if (params_.motion_segmentation) {
-    m.stream.run([&](gpu::CommandList& cmd) {
-      motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.motion, m.residuals, m.residual_rect);
-    });
-    m.residuals_host.resize(slots_.size() * 4);
-    const size_t row_floats = size_t(intrinsics_.width) * 4, offset = size_t(m.residual_rect.y0) * row_floats;
-    m.stream.download(m.residuals, m.residuals_host.data() + offset,
-                      size_t(m.residual_rect.height()) * row_floats * sizeof(float), offset * sizeof(float));
-  }
+  m.T_prediction_live = m.motion;
+  if (params_.motion_segmentation) compute_residuals(m);
+}
+
+// The per-pixel residuals of the live frame against the model's prediction (the live frame taken
+// to the prediction's view by T_prediction_live), over its residual rectangle, read back.
+void CoFusion::compute_residuals(Model& m) {
+  m.stream.run([&](gpu::CommandList& cmd) {
+    motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.T_prediction_live, m.residuals, m.residual_rect);
+  });
+  m.residuals_host.resize(slots_.size() * 4);
+  const size_t row_floats = size_t(intrinsics_.width) * 4, offset = size_t(m.residual_rect.y0) * row_floats;
+  m.stream.download(m.residuals, m.residuals_host.data() + offset,
+                    size_t(m.residual_rect.height()) * row_floats * sizeof(float), offset * sizeof(float));
+  m.settled = true;
 }
 
 // The segmentation's input for model m: per-pixel alignment cost in metres, NaN = no geometry.
@@ -264,6 +391,7 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   const size_t width = size_t(intrinsics_.width);
   // Outside its residual rectangle the model has no geometry; only the rectangle is read.
   costs.assign(n, kNaN);
+  if (!m.settled) return;  // not tracked this frame (the camera was relocalised): no evidence
   const MotionCostParams& p = params_.costs;
   const bool background = m.id == 0;
   const auto sigma = [](float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); };
@@ -335,7 +463,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
   std::vector<Model*> active;
   for (auto& m : models_)
     if (m->state == ModelState::kActive) active.push_back(m.get());
-  for (Model* m : active) m->tracked = false, m->tracking = {};
+  for (Model* m : active) m->tracked = false, m->settled = false, m->tracking = {};
   {
     // Where each model works this frame (see Model::track_rect).
     const std::vector<PixelRect> rects = slot_rects(slots_, width, height);
@@ -361,6 +489,13 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
       superpixels = segmenter_.superpixels(rgb, depth_m, width, height);
       sp_end = Clock::now();
     });
+  // The frame's keyframe encoding: for relocalisation now when lost, else for the database later.
+  FrameEncoding encoding;
+  const auto encode = [&] { encoding = keyframes_.encode(rgb, depth_m, width, height); };
+  if (lost_)
+    encode();
+  else
+    cpu_jobs.run(encode);
 
   gpu::CommandList pre = main_stream_.begin();
   preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, preprocess_);
@@ -375,20 +510,32 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     for (Model* m : models) jobs.run([m, &work] { work(*m); });
     jobs.wait();
   };
-  if (frame_ > 0) {
+  Model& bg = *active.front();
+  CameraState camera = CameraState::kTracking;
+  if (frame_ > 0 && !lost_) {
     for_each_model(active, [&](Model& m) { predict_model(m, preprocessed); });
     stage("predict");
     for_each_model(active, [&](Model& m) { track_model(m); });
-    const Eigen::Isometry3d camera_motion = active.front()->motion;
-    for_each_model(active, [&](Model& m) { settle_model(m, camera_motion); });
+    if (bg.tracking.failed) {
+      camera = CameraState::kLost;
+      lost_ = true;
+      hold_still(active, bg.tracking.failure_reason);
+    } else {
+      const Eigen::Isometry3d camera_motion = bg.motion;
+      for_each_model(active, [&](Model& m) { settle_model(m, camera_motion); });
+    }
     stage("track");
+  } else if (frame_ > 0) {
+    camera = relocalise(bg, encoding) ? CameraState::kRecovered : CameraState::kLost;
+    if (camera == CameraState::kRecovered) out.events.push_back("frame " + std::to_string(frame_) + ": camera relocalised");
+    stage("relocalise");
   }
+  out.camera_state = camera;
   const Clock::time_point gpu_end = Clock::now();
 
   // Poses: the background's motion is the camera's; every other model's follows from its own.
   const Eigen::Isometry3d T_world_camera_prev = T_world_camera_;
   if (frame_ > 0) {
-    Model& bg = *active.front();
     T_world_camera_ = orthonormalised(T_world_camera_prev * bg.motion);
     out.camera_tracking = bg.tracking;
     for (Model* m : active)
@@ -399,8 +546,11 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
   out.T_world_camera = T_world_camera_;
 
   std::vector<int> spawned_slots;
-  if (segmenting) {
-    cpu_jobs.wait();
+  cpu_jobs.wait();
+  if (segmenting && camera == CameraState::kLost) {
+    // Nothing is known of this frame's motion: no segmentation, no fusion (every model's tracking
+    // counts as failed), and the previous labels stay for the next frame.
+  } else if (segmenting) {
     out.superpixels_ms = ms_between(sp_start, sp_end);
     out.superpixels_overlap_ms = std::max(0.0, ms_between(std::max(sp_start, gpu_start), std::min(sp_end, gpu_end)));
     const auto seg_start = Clock::now();
@@ -453,9 +603,14 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     s.tracking = m->tracking;
     out.active.push_back(s);
   }
-  out.labels.resize(n);
-  for (size_t i = 0; i < n; ++i)
-    out.labels[i] = slots_[i] == kNoSlot || slots_[i] == kUnclaimedSlot ? 0xFFFF : slot_to_id[slots_[i]];
+  out.labels.assign(n, 0xFFFF);
+  if (camera != CameraState::kLost)
+    for (size_t i = 0; i < n; ++i) out.labels[i] = slots_[i] < kMoverSlot ? slot_to_id[slots_[i]] : uint16_t{0xFFFF};
+  if (camera == CameraState::kTracking) keyframes_.add_if_novel(encoding, T_world_camera_);
+  if (camera == CameraState::kTracking && frame_ > 0) {
+    recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
+    if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
+  }
   ++frame_;
   return out;
 }
@@ -486,14 +641,20 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   const uint8_t outlier = static_cast<uint8_t>(order.size());
   std::vector<uint8_t> slots(n, kNoSlot);
   const float max_cost = params_.costs.max_explained_cost_m;
+  // Per model: pixels the segmentation gave it, and of those the ones its motion explains.
+  std::vector<int> labelled(order.size(), 0), explained(order.size(), 0);
   for (size_t i = 0; i < n; ++i) {
     const uint8_t l = seg.labels[i];
-    if (l < outlier && !(costs[l][i] > max_cost))
+    if (l < outlier) ++labelled[l];
+    if (l < outlier && !(costs[l][i] > max_cost)) {
       slots[i] = static_cast<uint8_t>(order[l]->slot);
-    else if (l == outlier || (l == segmentation::kNoLabel && depth_m[i] > 0.0f))
+      ++explained[l];
+    } else if (l == outlier || (l == segmentation::kNoLabel && depth_m[i] > 0.0f)) {
       slots[i] = kUnclaimedSlot;
+    }
   }
   Model& bg = *order.front();
+  drop_nonrigid(order, seg.labels, labelled, explained, slots, out);
 
   // Merges. A young model that has not moved relative to the background is no object; two models
   // moving as one body become one. Their pixels go to the model they merge into.
@@ -540,12 +701,13 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   // spawn_max_area_fraction of the image is a candidate new model; it spawns one once it was a
   // candidate in the previous frame too (several objects starting to move at once each spawn).
   segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
+  const std::vector<char> mover = mark_movers(outlier, slots);
   std::vector<std::vector<size_t>> regions;  // pixels of each large outlier region, largest first
   {
     std::vector<int> large_components;
     for (int c = 0; c < int(components_.components.size()); ++c) {
       const auto& info = components_.components[size_t(c)];
-      if (info.value == outlier && double(info.pixels) > p.spawn_min_area_fraction * double(n) &&
+      if (info.value == outlier && !mover[size_t(c)] && double(info.pixels) > p.spawn_min_area_fraction * double(n) &&
           double(info.pixels) <= p.spawn_max_area_fraction * double(n))
         large_components.push_back(c);
     }
@@ -563,7 +725,8 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   int active_count = 0;
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
   const bool camera_steady = !bg.tracking.failed && bg.motion.translation().norm() <= p.spawn_max_camera_translation_m &&
-                             rotation_deg(bg.motion) <= p.spawn_max_camera_rotation_deg;
+                             rotation_deg(bg.motion) <= p.spawn_max_camera_rotation_deg &&
+                             frame_ - last_recovery_frame_ >= params_.relocalisation.settle_frames;
   // Centroid (camera frame) of a region's live points: a new model's origin, and with the previous
   // frame's candidate it overlaps most the region's motion over the last frame.
   const auto centroid_of = [&](const std::vector<size_t>& pixels) -> std::optional<Eigen::Vector3d> {
@@ -695,6 +858,54 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   // Deleted models leave the list.
   std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == kRemovedSlot; });
   return slots;
+}
+
+// Non-rigid movers (LifecycleParams::rigidity_trial_frames): a young object model whose motion
+// leaves too much of its own label unexplained in too many frames of its trial is dropped; its
+// label's pixels become mover pixels.
+void CoFusion::drop_nonrigid(const std::vector<Model*>& order, const std::vector<uint8_t>& seg_labels,
+                             const std::vector<int>& labelled, const std::vector<int>& explained,
+                             std::vector<uint8_t>& slots, CoFusionFrame& out) {
+  const LifecycleParams& p = params_.lifecycle;
+  for (size_t k = 1; k < order.size(); ++k) {
+    Model& m = *order[k];
+    const double fraction = labelled[k] > 0 ? double(explained[k]) / double(labelled[k]) : 0.0;
+    if (m.state != ModelState::kActive || !m.tracked || frame_ - m.first_frame > p.rigidity_trial_frames) continue;
+    if (!m.tracking.failed && fraction >= p.rigid_min_explained_fraction) continue;
+    if (++m.rigidity_failures < p.rigidity_max_failures) continue;
+    for (size_t i = 0; i < slots.size(); ++i)
+      if (size_t(seg_labels[i]) == k || slots[i] == m.slot) slots[i] = kMoverSlot;
+    m.state = ModelState::kInactive;
+    m.slot = kRemovedSlot;
+    char why[96];
+    std::snprintf(why, sizeof why, "its motion explained %.0f%% of its pixels", 100.0 * fraction);
+    out.events.push_back("frame " + std::to_string(frame_) + ": dropped model " + std::to_string(m.id) +
+                         " (not rigid: " + (m.tracking.failed ? std::string("tracking failed") : std::string(why)) +
+                         " in " + std::to_string(m.rigidity_failures) + " frames of its first " +
+                         std::to_string(frame_ - m.first_frame) + ")");
+  }
+}
+
+// Mover regions (LifecycleParams::mover_min_overlap): the outlier components of this frame's
+// segmentation (components_) that overlap the previous frame's mover pixels enough; their pixels
+// become mover pixels. Returns per component whether it is a mover.
+std::vector<char> CoFusion::mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const {
+  const size_t width = size_t(intrinsics_.width);
+  std::vector<char> mover(components_.components.size(), 0);
+  if (slots_.size() != slots.size()) return mover;
+  std::vector<int64_t> overlap(components_.components.size(), 0);
+  for (const auto& run : components_.runs)
+    if (run.component >= 0 && run.value == outlier)
+      for (int x = run.x0; x < run.x1; ++x) overlap[size_t(run.component)] += slots_[size_t(run.y) * width + size_t(x)] == kMoverSlot;
+  for (size_t c = 0; c < mover.size(); ++c) {
+    const auto& info = components_.components[c];
+    mover[c] = info.value == outlier && overlap[c] > 0 &&
+               double(overlap[c]) >= params_.lifecycle.mover_min_overlap * double(info.pixels);
+  }
+  for (const auto& run : components_.runs)
+    if (run.component >= 0 && mover[size_t(run.component)])
+      for (int x = run.x0; x < run.x1; ++x) slots[size_t(run.y) * width + size_t(x)] = kMoverSlot;
+  return mover;
 }
 
 // Tries to align model m (inactive, or an object that lost every pixel this frame) with the

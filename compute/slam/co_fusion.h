@@ -24,6 +24,7 @@
 
 #include "segmentation/motion_segmentation.h"
 #include "slam/dense_slam.h"
+#include "slam/keyframe_database.h"
 #include "slam/motion_kernels.h"
 
 namespace cofusion::slam {
@@ -100,8 +101,8 @@ struct LifecycleParams {
   // A new model's first tracking starts from the region's centroid motion over the last frame
   // when it is at most this long (metres; longer means the regions are not one object's).
   double spawn_max_velocity_guess_m = 0.1;
-  // Active models at most, background included (the label map has 32 slots; each model costs a
-  // prediction, a tracking run and a fusion per frame).
+  // Active models at most, background included (the label map has 30 model slots; each model
+  // costs a prediction, a tracking run and a fusion per frame).
   int max_active_models = 8;
   // A model whose label is absent this many consecutive frames becomes inactive ...
   int deactivate_after_frames = 10;
@@ -155,6 +156,47 @@ struct LifecycleParams {
   // at full resolution), and they need them: with the background's, table_placement's can was lost
   // and the ball spawned twice.
   std::vector<int> object_iterations_per_level = {2, 4, 6, 10};
+
+  // Non-rigid movers (a walking person, a waving arm) are no rigid objects. A new object model is
+  // on trial for its first rigidity_trial_frames frames; a frame counts against it when its
+  // tracking failed, or when of the pixels the segmentation gave it, less than
+  // rigid_min_explained_fraction are explained by its tracked motion (cost at most
+  // MotionCostParams::max_explained_cost_m): a rigid body's motion explains all of it but its
+  // noise, a body whose parts move differently leaves the rest unexplained. At
+  // rigidity_max_failures such frames the model is dropped (its surfels discarded) and its pixels
+  // become a mover region.
+  int rigidity_trial_frames = 8;
+  int rigidity_max_failures = 3;
+  double rigid_min_explained_fraction = 0.7;
+  // Mover regions are followed from frame to frame: an outlier region (connected, any size) that
+  // overlaps the previous frame's mover pixels with at least this fraction of its own pixels is the
+  // same mover, moved on. Mover pixels belong to no model: nothing fuses them, nothing tracks with
+  // them (not even the background when outliers are many), and they spawn no model. A mover that
+  // stops moving is explained by the background again and leaves the regions.
+  double mover_min_overlap = 0.3;
+};
+
+// Camera tracking loss and relocalisation. A frame whose camera tracking fails is lost: its pose is
+// not updated and nothing is fused. Every following frame is relocalised against the background
+// model until one succeeds: tracked (with all its pixels) from the last tracked pose and from the
+// poses of the keyframes that look most like it (KeyframeDatabase); the best alignment that passes
+// the thresholds below recovers the camera, and the pipeline resumes from the next frame.
+struct RelocalisationParams {
+  KeyframeParams keyframes;
+  // Keyframes tried besides the last tracked pose.
+  int candidate_keyframes = 3;
+  // A relocalisation is accepted when its alignment is about as good as the camera's tracking was
+  // before the loss (the median over the last recent_frames tracked frames; sensors, depths and
+  // scenes differ too much for absolute thresholds): an inlier ratio (TrackingResult::inlier_ratio)
+  // of at least min_inlier_ratio_rel times that median and an RMS point-to-plane residual of at
+  // most max_rms_rel times it. Stricter than tracking's own failure rules: an alignment from a
+  // wrong start can converge to a wrong but self-consistent pose.
+  int recent_frames = 30;
+  double min_inlier_ratio_rel = 0.75;
+  double max_rms_rel = 1.5;
+  // No new model spawns for this many frames after a recovery (the background's residuals must
+  // settle first, as at the start: LifecycleParams::warmup_frames).
+  int settle_frames = 5;
 };
 
 // Objects at rest. A box seen edge-on as one striped face constrains few directions of its motion:
@@ -184,6 +226,7 @@ struct CoFusionParams {
   MotionCostParams costs;
   LifecycleParams lifecycle;
   RestParams rest;
+  RelocalisationParams relocalisation;
   // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
   bool motion_segmentation = true;
 };
@@ -213,9 +256,15 @@ struct ModelStatus {
   TrackingResult tracking;
 };
 
+// The camera's tracking this frame: tracked; lost (tracking failed, or relocalisation has not
+// succeeded yet: pose not updated, nothing fused); recovered (relocalised this frame).
+enum class CameraState { kTracking, kLost, kRecovered };
+const char* to_string(CameraState state);
+
 struct CoFusionFrame {
   int frame = 0;
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  CameraState camera_state = CameraState::kTracking;
   TrackingResult camera_tracking;  // the background's tracking (default on the first frame)
   std::vector<ModelStatus> active;  // after this frame's lifecycle changes; background first
   std::vector<std::string> events;  // one line each: spawned, merged, deactivated, re-activated, re-found, deleted
@@ -268,12 +317,20 @@ class CoFusion {
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
   void track_model(Model& m);
   void settle_model(Model& m, const Eigen::Isometry3d& camera_motion);
+  void compute_residuals(Model& m);
   void fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect);
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
   std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,
                                        const std::vector<std::vector<float>>& costs, const float* depth_m,
                                        std::vector<Model*>& order, CoFusionFrame& out, std::vector<int>& spawned_slots);
   bool try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera);
+  bool relocalise(Model& bg, const FrameEncoding& encoding);
+  void hold_still(const std::vector<Model*>& active, const std::string& why);
+  std::vector<Model*> live_models() const;  // the active models, background first
+  std::vector<char> mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const;
+  void drop_nonrigid(const std::vector<Model*>& order, const std::vector<uint8_t>& seg_labels,
+                     const std::vector<int>& labelled, const std::vector<int>& explained,
+                     std::vector<uint8_t>& slots, CoFusionFrame& out);
   void merge_into(Model& keep, Model& gone, CoFusionFrame& out, const std::string& why);
   void retire(Model& m, CoFusionFrame& out);
   void upload_labels(const std::vector<uint8_t>& slots);
@@ -299,6 +356,12 @@ class CoFusion {
   std::vector<std::optional<Eigen::Vector3d>> spawn_candidate_centroids_;
   segmentation::ComponentLabelling components_;  // scratch of the outlier-region search
   std::vector<std::unique_ptr<Model>> models_;  // active and inactive
+  // Tracking loss: lost_ from a failed camera tracking until a relocalisation succeeds;
+  // T_world_camera_ stays the last tracked pose meanwhile.
+  KeyframeDatabase keyframes_;
+  bool lost_ = false;
+  std::vector<std::pair<double, double>> recent_tracking_;  // (inlier ratio, RMS m) of tracked frames, oldest first
+  int last_recovery_frame_ = -1000000;
   int next_id_ = 1;
   int frame_ = 0;
   Eigen::Isometry3d T_world_camera_ = Eigen::Isometry3d::Identity();

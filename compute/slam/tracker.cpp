@@ -140,6 +140,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
       sums.rgb[i] += part[ICP_RGB_OFFSET_RGB + i];
     }
     sums.valid_live_pixels += part[ICP_RGB_OFFSET_VALID];
+    sums.occluding_live_pixels += part[ICP_RGB_OFFSET_OCCLUDING];
   }
   return sums;
 }

@@ -110,6 +110,7 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
       const int xn = static_cast<int>(std::floor(x + 0.5)), yn = static_cast<int>(std::floor(y + 0.5));
       const glm::vec4& v_ref = ref.vertex.at(xn, yn);
       if (!(v_ref.w > 0)) continue;
+      if (normal_valid && v_ref.z - q.z() > max_d) sums.occluding_live_pixels += 1;
 
       if (normal_valid) {
         const glm::vec4& n_ref4 = ref.normal.at(xn, yn);

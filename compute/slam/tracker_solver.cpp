@@ -92,7 +92,9 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
       result.icp_inliers = static_cast<int>(s.icp[28]);
       result.rgb_residuals = static_cast<int>(s.rgb[28]);
       result.valid_live_pixels = static_cast<int>(s.valid_live_pixels);
-      result.inlier_ratio = s.valid_live_pixels > 0 ? s.icp[28] / s.valid_live_pixels : 0.0;
+      result.occluding_live_pixels = static_cast<int>(s.occluding_live_pixels);
+      const double comparable = s.valid_live_pixels - s.occluding_live_pixels;
+      result.inlier_ratio = comparable > 0 ? s.icp[28] / comparable : 0.0;
       result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
       result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
       rgb_huber_delta = params.photometric_huber_k * result.rgb_rms;
@@ -137,7 +139,7 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
   if (result.inlier_ratio < params.min_inlier_ratio)
     return fail("inlier ratio " + fmt(result.inlier_ratio) + " < " + fmt(params.min_inlier_ratio) + " (" +
                 std::to_string(result.icp_inliers) + " of " + std::to_string(result.valid_live_pixels) +
-                " valid live pixels)");
+                " valid live pixels, " + std::to_string(result.occluding_live_pixels) + " of them occluding)");
   result.T_reference_live = T;
   return result;
 }

@@ -82,8 +82,9 @@ struct TrackerParams {
   // box's model lose the box when it was lifted). The finest level still fails below
   // min_correspondences.
   int min_coarse_level_correspondences = 300;
-  // Final ICP inliers / live pixels with a valid vertex and normal (at the finest level run). For
-  // object models, whose predicted view covers part of the image, the caller lowers this.
+  // Final TrackingResult::inlier_ratio (at the finest level run): ICP inliers / live pixels with a
+  // valid vertex and normal that do not occlude the reference. For object models, whose
+  // predicted view covers part of the image, the caller lowers this.
   double min_inlier_ratio = 0.1;
   // The system is degenerate when, after balancing its rotation block against its translation
   // block (rotation rescaled by the point cloud's effective radius), its smallest eigenvalue is
@@ -113,7 +114,14 @@ struct TrackingResult {
   int icp_inliers = 0;        // ICP correspondences
   int rgb_residuals = 0;      // photometric residuals (0 without the term)
   int valid_live_pixels = 0;  // live pixels with a valid vertex and normal
-  double inlier_ratio = 0;    // icp_inliers / valid_live_pixels
+  // Of those, the ones in front of the reference surface by more than the correspondence distance
+  // (people walking in front of the background): they cannot correspond to the reference from any
+  // pose near this one, and they contradict none.
+  int occluding_live_pixels = 0;
+  // icp_inliers / (valid_live_pixels - occluding_live_pixels): of the live pixels that could meet
+  // the reference, the share that does. A view mostly covered by movers keeps a high ratio when
+  // what it sees of the reference is aligned.
+  double inlier_ratio = 0;
   double icp_rms_m = 0;       // RMS point-to-plane residual, metres
   double rgb_rms = 0;         // RMS photometric residual (Huber-weighted), intensity / 255
   double eigenvalue_ratio = 0;  // balanced smallest / largest eigenvalue of the last system
@@ -129,6 +137,9 @@ struct LinearSystemSums {
   std::array<double, kTermValues> icp{};
   std::array<double, kTermValues> rgb{};
   double valid_live_pixels = 0;  // live pixels with a valid vertex and normal
+  // Of those, the ones in front of the reference surface by more than the correspondence distance:
+  // occluders in the reference's free space (host_device.h, ICP_RGB_OFFSET_OCCLUDING).
+  double occluding_live_pixels = 0;
 };
 
 // Unpacks one term into H = J^T J, b = J^T r.

@@ -399,6 +399,41 @@ TEST_F(CoFusionScenes, StaticRoomSpawnsNoModel) {
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.005);
 }
 
+// A covered lens for ten frames (no depth, a dark image) while the hand-held camera moves on: those
+// frames are lost (nothing fused, the pose held), the camera is relocalised once the view returns,
+// and tracking goes on from the recovered pose.
+TEST_F(CoFusionScenes, CoveredLensIsLostThenRelocalised) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("static_room"), 0, 40);
+  constexpr int kCoveredFrom = 12, kCoveredTo = 21;  // inclusive
+  CoFusion slam(ctx(), seq.intrinsics(), {});
+  Trajectory camera;
+  std::vector<slam::CameraState> states;
+  for (int f = 0; f < seq.size(); ++f) {
+    Frame frame = seq.frame(f);
+    if (f >= kCoveredFrom && f <= kCoveredTo) frame.depth_m.setTo(0.0f), frame.rgb.setTo(cv::Scalar(6, 5, 5));
+    const slam::CoFusionFrame r = slam.process(frame.depth_m.ptr<float>(), frame.rgb.data);
+    states.push_back(r.camera_state);
+    camera.push_back({seq.timestamp_s(f), r.T_world_camera});
+    if (f > kCoveredTo && r.camera_state == slam::CameraState::kLost)
+      std::printf("  frame %d lost: %s\n", f, r.camera_tracking.failure_reason.c_str());
+    if (f >= kCoveredFrom && f <= kCoveredTo) {
+      EXPECT_EQ(r.camera_state, slam::CameraState::kLost) << "frame " << f;
+      for (const auto& m : r.active) EXPECT_TRUE(m.tracking.failed) << "frame " << f << " model " << m.id;
+    }
+  }
+  int recovered = -1;
+  for (int f = kCoveredTo + 1; f < seq.size() && recovered < 0; ++f)
+    if (states[size_t(f)] == slam::CameraState::kRecovered) recovered = f;
+  ASSERT_GE(recovered, 0) << "never relocalised";
+  EXPECT_LE(recovered - kCoveredTo, 5);
+  for (int f = recovered + 1; f < seq.size(); ++f) EXPECT_EQ(states[size_t(f)], slam::CameraState::kTracking) << "frame " << f;
+  // The poses while tracking (before the loss and from the recovery on) match the ground truth.
+  Trajectory tracked;
+  for (size_t f = 0; f < camera.size(); ++f)
+    if (states[f] != slam::CameraState::kLost) tracked.push_back(camera[f]);
+  EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), tracked).translation_m.rmse, 0.01);
+}
+
 TEST_F(CoFusionScenes, WithoutMotionSegmentationEverythingIsBackground) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("two_objects"), 0, 12);
   slam::CoFusionParams params;

@@ -227,6 +227,7 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     const slam::LinearSystemSums gpu = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
     const slam::LinearSystemSums cpu = ref::compute_sums(live_host, reference_host, T, params);
     EXPECT_EQ(gpu.valid_live_pixels, cpu.valid_live_pixels) << what;
+    EXPECT_EQ(gpu.occluding_live_pixels, cpu.occluding_live_pixels) << what;
     if (s.w >= 160) {
       // The scene must exercise both terms for the comparison to mean something.
       EXPECT_GT(cpu.icp[28], 0.5 * cpu.valid_live_pixels) << what;
@@ -296,6 +297,7 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, rect);
       const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, params, rect);
       EXPECT_EQ(g.valid_live_pixels, c.valid_live_pixels) << in;
+      EXPECT_EQ(g.occluding_live_pixels, c.occluding_live_pixels) << in;
       EXPECT_LE(c.valid_live_pixels, cpu.valid_live_pixels) << in;
       expect_sums_near(g.icp, c.icp, 2e-3, in + " icp");
       expect_sums_near(g.rgb, c.rgb, 2e-3, in + " rgb");
@@ -413,6 +415,32 @@ TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
   const slam::TrackingResult solved = slam::gauss_newton(pixels, sums, guess, params);
   EXPECT_TRUE(solved.failed);
   EXPECT_NE(solved.failure_reason.find("diverged at level 3"), std::string::npos) << solved.failure_reason;
+}
+
+// The inlier ratio leaves out live pixels that occlude the reference (people in front of the
+// background): 500 inliers of 6000 valid live pixels fail the 0.1 rule, unless 2000 of the 6000
+// lie in front of the reference.
+TEST(TrackerSolver, InlierRatioLeavesOutOccludingLivePixels) {
+  const std::vector<long> pixels = {640 * 480};
+  const auto sums_with = [](double inliers, double occluding) -> slam::SumsAtLevel {
+    return [=](int, const Isometry3d&, double) {
+      slam::LinearSystemSums s;
+      s.valid_live_pixels = 6000;
+      s.occluding_live_pixels = occluding;
+      s.icp = diagonal_term(Vector6d::Constant(1e4), Vector6d::Zero(), inliers);
+      return s;
+    };
+  };
+  slam::TrackerParams params = icp_only_params();
+  params.iterations_per_level = {1};
+  params.min_correspondences = 100;
+  const slam::TrackingResult few = slam::gauss_newton(pixels, sums_with(500, 0), kSolverGuess, params);
+  EXPECT_TRUE(few.failed);
+  EXPECT_NEAR(few.inlier_ratio, 500.0 / 6000.0, 1e-12);
+  const slam::TrackingResult covered = slam::gauss_newton(pixels, sums_with(500, 2000), kSolverGuess, params);
+  EXPECT_FALSE(covered.failed) << covered.failure_reason;
+  EXPECT_NEAR(covered.inlier_ratio, 500.0 / 4000.0, 1e-12);
+  EXPECT_EQ(covered.occluding_live_pixels, 2000);
 }
 
 // A degenerate coarse level (a small object's face at 80x60) is skipped; a degenerate finest

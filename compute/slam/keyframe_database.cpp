@@ -1,0 +1,96 @@
+#include "slam/keyframe_database.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "common/error.h"
+#include "common/se3.h"
+
+namespace cofusion::slam {
+
+KeyframeDatabase::KeyframeDatabase(const KeyframeParams& params) : params_(params) {
+  const auto bad = [](const char* why) { throw Error(std::string("invalid keyframe parameter: ") + why); };
+  if (params.cols < 1 || params.rows < 1) bad("cols and rows must be >= 1");
+  if (!(params.min_valid_fraction > 0 && params.min_valid_fraction <= 1)) bad("min_valid_fraction must be in (0, 1]");
+  if (!(params.depth_weight_per_m >= 0)) bad("depth_weight_per_m must be >= 0");
+  if (!(params.min_overlap_fraction >= 0 && params.min_overlap_fraction <= 1)) bad("min_overlap_fraction must be in [0, 1]");
+  if (!(params.min_translation_m >= 0) || !(params.min_rotation_deg >= 0)) bad("novelty thresholds must be >= 0");
+  if (params.max_keyframes < 1) bad("max_keyframes must be >= 1");
+}
+
+FrameEncoding KeyframeDatabase::encode(const uint8_t* rgb, const float* depth_m, int width, int height) const {
+  const int cols = params_.cols, rows = params_.rows;
+  const size_t blocks = size_t(cols) * size_t(rows);
+  std::vector<double> intensity(blocks, 0.0), depth(blocks, 0.0);
+  std::vector<int> pixels(blocks, 0), valid(blocks, 0);
+  for (int y = 0; y < height; ++y) {
+    const size_t by = size_t(std::min(rows - 1, y * rows / height));
+    for (int x = 0; x < width; ++x) {
+      const size_t b = by * size_t(cols) + size_t(std::min(cols - 1, x * cols / width));
+      const size_t i = size_t(y) * size_t(width) + size_t(x);
+      const uint8_t* c = rgb + 3 * i;
+      intensity[b] += (double(c[0]) + double(c[1]) + double(c[2])) / 3.0;
+      ++pixels[b];
+      const float d = depth_m[i];
+      if (d > 0.0f && std::isfinite(d)) depth[b] += d, ++valid[b];
+    }
+  }
+  FrameEncoding e;
+  e.intensity.resize(blocks);
+  e.depth_m.resize(blocks);
+  double mean = 0, sq = 0;
+  for (size_t b = 0; b < blocks; ++b) {
+    const double v = pixels[b] > 0 ? intensity[b] / pixels[b] : 0.0;
+    intensity[b] = v, mean += v, sq += v * v;
+    e.depth_m[b] = pixels[b] > 0 && valid[b] >= params_.min_valid_fraction * pixels[b] ? float(depth[b] / valid[b]) : 0.0f;
+  }
+  mean /= double(blocks);
+  const double stddev = std::sqrt(std::max(0.0, sq / double(blocks) - mean * mean));
+  // A uniform image (a covered lens) has no contrast to normalise: its blocks stay at zero.
+  for (size_t b = 0; b < blocks; ++b) e.intensity[b] = stddev > 1e-6 ? float((intensity[b] - mean) / stddev) : 0.0f;
+  return e;
+}
+
+double KeyframeDatabase::dissimilarity(const FrameEncoding& a, const FrameEncoding& b) const {
+  const size_t blocks = a.intensity.size();
+  if (blocks == 0 || b.intensity.size() != blocks) return std::numeric_limits<double>::infinity();
+  double di = 0, dd = 0;
+  size_t both = 0;
+  for (size_t k = 0; k < blocks; ++k) {
+    di += std::abs(double(a.intensity[k]) - double(b.intensity[k]));
+    if (a.depth_m[k] > 0.0f && b.depth_m[k] > 0.0f) dd += std::abs(double(a.depth_m[k]) - double(b.depth_m[k])), ++both;
+  }
+  if (double(both) < params_.min_overlap_fraction * double(blocks)) return std::numeric_limits<double>::infinity();
+  return di / double(blocks) + params_.depth_weight_per_m * dd / double(both);
+}
+
+bool KeyframeDatabase::add_if_novel(const FrameEncoding& encoding, const Eigen::Isometry3d& T_world_camera) {
+  for (const Keyframe& k : keyframes_) {
+    const Eigen::Isometry3d d = k.T_world_camera.inverse() * T_world_camera;
+    if (d.translation().norm() < params_.min_translation_m &&
+        rotation_angle_rad(d) * 180.0 / std::numbers::pi < params_.min_rotation_deg)
+      return false;
+  }
+  if (int(keyframes_.size()) >= params_.max_keyframes) keyframes_.erase(keyframes_.begin());
+  keyframes_.push_back({encoding, T_world_camera});
+  return true;
+}
+
+std::vector<Eigen::Isometry3d> KeyframeDatabase::nearest(const FrameEncoding& encoding, int count) const {
+  std::vector<std::pair<double, size_t>> scored;
+  for (size_t k = 0; k < keyframes_.size(); ++k) {
+    const double d = dissimilarity(encoding, keyframes_[k].encoding);
+    if (std::isfinite(d)) scored.emplace_back(d, k);
+  }
+  // Ties (identical encodings) keep the newer keyframe first: it was made with the newer map.
+  std::sort(scored.begin(), scored.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first < y.first : x.second > y.second;
+  });
+  std::vector<Eigen::Isometry3d> out;
+  for (size_t k = 0; k < scored.size() && int(out.size()) < count; ++k) out.push_back(keyframes_[scored[k].second].T_world_camera);
+  return out;
+}
+
+}  // namespace cofusion::slam

@@ -1,0 +1,121 @@
+// Keyframe encodings for relocalisation: block means, normalisation, dissimilarity, novelty and the
+// nearest keyframes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "common/error.h"
+#include "slam/keyframe_database.h"
+
+namespace cofusion::test {
+namespace {
+using slam::FrameEncoding;
+using slam::KeyframeDatabase;
+using slam::KeyframeParams;
+
+struct Image {
+  int width, height;
+  std::vector<uint8_t> rgb;
+  std::vector<float> depth_m;
+};
+
+// A horizontal intensity ramp shifted by `shift_px`, over a plane at `depth_m`.
+Image ramp(int width, int height, int shift_px, float depth_m) {
+  Image im{width, height, std::vector<uint8_t>(size_t(width) * height * 3), std::vector<float>(size_t(width) * height, depth_m)};
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < 3; ++c)
+        im.rgb[3 * (size_t(y) * width + x) + c] = static_cast<uint8_t>((((x + shift_px) * 255) / width + y) % 256);
+  return im;
+}
+
+Eigen::Isometry3d translated(double x) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = x;
+  return T;
+}
+
+TEST(KeyframeDatabase, EncodingIsBlockMeansNormalisedAndMarksSparseDepth) {
+  KeyframeParams p;
+  p.cols = 4, p.rows = 2;
+  const KeyframeDatabase db(p);
+  // Left half dark (50), right half bright (150); depth valid only in the top row of blocks.
+  Image im{8, 4, std::vector<uint8_t>(8 * 4 * 3), std::vector<float>(8 * 4, 0.0f)};
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 8; ++x) {
+      for (int c = 0; c < 3; ++c) im.rgb[3 * (y * 8 + x) + c] = x < 4 ? 50 : 150;
+      if (y < 2) im.depth_m[size_t(y * 8 + x)] = 1.0f + 0.5f * float(x / 2);
+    }
+  const FrameEncoding e = db.encode(im.rgb.data(), im.depth_m.data(), 8, 4);
+  ASSERT_EQ(e.intensity.size(), 8u);
+  for (int b = 0; b < 8; ++b) EXPECT_NEAR(e.intensity[size_t(b)], (b % 4) < 2 ? -1.0f : 1.0f, 1e-5) << b;
+  for (int b = 0; b < 4; ++b) EXPECT_FLOAT_EQ(e.depth_m[size_t(b)], 1.0f + 0.5f * float(b)) << b;
+  for (int b = 4; b < 8; ++b) EXPECT_EQ(e.depth_m[size_t(b)], 0.0f) << b;
+}
+
+TEST(KeyframeDatabase, UniformImageEncodesToZeroContrastWithoutNaN) {
+  const KeyframeDatabase db{KeyframeParams{}};
+  Image im{64, 48, std::vector<uint8_t>(64 * 48 * 3, 7), std::vector<float>(64 * 48, 0.0f)};
+  const FrameEncoding e = db.encode(im.rgb.data(), im.depth_m.data(), 64, 48);
+  for (float v : e.intensity) EXPECT_EQ(v, 0.0f);
+  // No depth at all: nothing to compare with any keyframe.
+  EXPECT_TRUE(std::isinf(db.dissimilarity(e, e)));
+}
+
+TEST(KeyframeDatabase, DissimilarityGrowsWithShiftAndDepthAndIgnoresExposure) {
+  const KeyframeDatabase db{KeyframeParams{}};
+  const Image a = ramp(160, 120, 0, 2.0f);
+  const FrameEncoding ea = db.encode(a.rgb.data(), a.depth_m.data(), 160, 120);
+  EXPECT_NEAR(db.dissimilarity(ea, ea), 0.0, 1e-9);
+  // Half the brightness: normalised away.
+  Image dim = a;
+  for (auto& c : dim.rgb) c = static_cast<uint8_t>(c / 2);
+  EXPECT_LT(db.dissimilarity(ea, db.encode(dim.rgb.data(), dim.depth_m.data(), 160, 120)), 0.05);
+  const Image b = ramp(160, 120, 20, 2.0f), c = ramp(160, 120, 60, 2.0f), d = ramp(160, 120, 0, 2.3f);
+  const double ab = db.dissimilarity(ea, db.encode(b.rgb.data(), b.depth_m.data(), 160, 120));
+  const double ac = db.dissimilarity(ea, db.encode(c.rgb.data(), c.depth_m.data(), 160, 120));
+  EXPECT_GT(ab, 0.05);
+  EXPECT_GT(ac, ab);
+  // 30 cm of depth at 10 per metre: 3 units.
+  EXPECT_NEAR(db.dissimilarity(ea, db.encode(d.rgb.data(), d.depth_m.data(), 160, 120)), 3.0, 1e-4);
+}
+
+TEST(KeyframeDatabase, KeepsOnlyNovelPosesAndFindsTheMostSimilar) {
+  KeyframeParams p;
+  p.max_keyframes = 3;
+  KeyframeDatabase db(p);
+  const std::vector<int> shifts = {0, 40, 80, 120};
+  std::vector<FrameEncoding> enc;
+  for (int s : shifts) {
+    const Image im = ramp(160, 120, s, 2.0f);
+    enc.push_back(db.encode(im.rgb.data(), im.depth_m.data(), 160, 120));
+  }
+  EXPECT_TRUE(db.add_if_novel(enc[0], translated(0.0)));
+  EXPECT_FALSE(db.add_if_novel(enc[1], translated(0.05)));  // within 10 cm of the first
+  EXPECT_TRUE(db.add_if_novel(enc[1], translated(0.5)));
+  EXPECT_TRUE(db.add_if_novel(enc[2], translated(1.0)));
+  EXPECT_EQ(db.size(), 3u);
+  const auto nearest = db.nearest(enc[1], 2);
+  ASSERT_EQ(nearest.size(), 2u);
+  EXPECT_NEAR(nearest[0].translation().x(), 0.5, 1e-12);
+  // The fourth drops the oldest.
+  EXPECT_TRUE(db.add_if_novel(enc[3], translated(1.5)));
+  EXPECT_EQ(db.size(), 3u);
+  for (const auto& T : db.nearest(enc[0], 3)) EXPECT_GT(T.translation().x(), 0.25);
+}
+
+TEST(KeyframeDatabase, RejectsBadParameters) {
+  KeyframeParams p;
+  p.cols = 0;
+  EXPECT_THROW(KeyframeDatabase{p}, Error);
+  p = {};
+  p.max_keyframes = 0;
+  EXPECT_THROW(KeyframeDatabase{p}, Error);
+  p = {};
+  p.min_valid_fraction = 0;
+  EXPECT_THROW(KeyframeDatabase{p}, Error);
+}
+
+}  // namespace
+}  // namespace cofusion::test
