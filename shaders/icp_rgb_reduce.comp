@@ -26,7 +26,7 @@ layout(binding = ICP_RGB_BINDING_LIVE_GRADIENT) uniform usamplerBuffer live_grad
 layout(binding = ICP_RGB_BINDING_LIVE_DEPTH) uniform usamplerBuffer live_depth;  // texel view of float
 layout(push_constant) uniform Push { IcpRgbReduceParams p; };
 
-// 16 vec4 per subgroup: 8 for the ICP term (its 29 values, then the valid live count), 8 for the
+// 16 vec4 per subgroup: 8 for the ICP term (its 29 values, the valid and occluding live counts), 8 for the
 // photometric term. 64 subgroups * 256 bytes = 16 KiB, Vulkan's guaranteed minimum.
 shared vec4 subgroup_sums[ICP_RGB_MAX_SUBGROUPS * 16];
 
@@ -95,6 +95,8 @@ void main() {
     const vec4 v_ref = texel_vec4(ref_vertex, j);
     if (v_ref.w <= 0.0) continue;
 
+    // A live point well in front of the reference surface occludes it (ICP_RGB_OFFSET_OCCLUDING).
+    if (normal_valid && v_ref.z - q.z > p.max_distance_m) icp.s7.z += 1.0;
     // Point-to-plane ICP (eq. 2): r = n_ref . (q - v_ref), J = [n_ref, q x n_ref].
     if (normal_valid) {
       const vec4 n_ref = texel_vec4(ref_normal, j);

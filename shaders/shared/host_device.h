@@ -269,8 +269,10 @@ struct TestTexelParams {
 // ---- icp_rgb_reduce.comp: one Gauss-Newton iteration of frame-to-model tracking -------------
 // Each workgroup loops over the live pixels (grid-stride) and writes ICP_RGB_PARTIAL_STRIDE
 // floats of partial sums: the ICP term (point-to-plane, metres) at ICP_RGB_OFFSET_ICP, the count
-// of live pixels with a valid vertex and normal at ICP_RGB_OFFSET_VALID, the photometric term
-// (intensity / 255) at ICP_RGB_OFFSET_RGB; the other floats are 0.
+// of live pixels with a valid vertex and normal at ICP_RGB_OFFSET_VALID, of those the ones lying
+// in front of the reference surface by more than max_distance_m (occluders in the reference's
+// free space: a person walking in front of the background) at ICP_RGB_OFFSET_OCCLUDING, the
+// photometric term (intensity / 255) at ICP_RGB_OFFSET_RGB; the other floats are 0.
 // Each 29-value term: the 21 entries of the upper triangle of J^T J (row-major: (0,0), (0,1) ..
 // (0,5), (1,1) .. (5,5)), the 6 entries of J^T r, sum r^2 and the number of residuals. J is the
 // derivative with respect to a left-composed twist (v, w) (see compute/common/se3.h).
@@ -288,6 +290,7 @@ struct TestTexelParams {
 #define ICP_RGB_TERM_VALUES 29            // values per term (see above)
 #define ICP_RGB_OFFSET_ICP 0
 #define ICP_RGB_OFFSET_VALID 29
+#define ICP_RGB_OFFSET_OCCLUDING 30
 #define ICP_RGB_OFFSET_RGB 32
 #define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup (16 vec4)
 #define ICP_RGB_MAX_SUBGROUPS 64          // shared memory holds this many subgroups: subgroup size >= 4
