@@ -34,8 +34,9 @@ trap 'rm -rf "$work"' EXIT
 
 # npm pack downloads a package's tarball (checked against the registry's integrity hash) without
 # installing it or its dependencies; only the model files are unpacked.
-(cd "$work" && npm pack --silent "$human" "$human_models" >/dev/null 2>"$work/npm.log") || {
-  echo "fetch-models: npm pack failed: $(tail -n 1 "$work/npm.log")" >&2; exit 1; }
+(cd "$work" && npm pack --loglevel=error "$human" "$human_models" >/dev/null 2>"$work/npm.log") || {
+  echo "fetch-models: npm pack failed: $(grep -m 1 -i 'error.*\(reason\|404\|E[A-Z]\)' "$work/npm.log" || tail -n 1 "$work/npm.log")" >&2
+  exit 1; }
 mkdir -p "$work/tfjs"
 tar -xzf "$work"/vladmandic-human-3.3.6.tgz -C "$work/tfjs" --strip-components=2 \
   package/models/centernet.json package/models/centernet.bin
