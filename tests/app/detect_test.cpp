@@ -80,8 +80,9 @@ TEST(DetectCommand, WritesMasksAndClassesForTumFr2Desk) {
     EXPECT_EQ(mask.size(), cv::Size(640, 480));
     for (int y = 0; y < mask.rows; ++y)
       for (int x = 0; x < mask.cols; ++x)
-        if (const int id = mask.at<uint16_t>(y, x); id != 0 && seen.insert(id).second)
+        if (const int id = mask.at<uint16_t>(y, x); id != 0 && seen.insert(id).second) {
           EXPECT_TRUE(classes.count(id)) << mask_path << ": id " << id << " has no class";
+        }
   }
   EXPECT_EQ(seen.size(), classes.size()) << "every listed id is used";
 }
