@@ -5,6 +5,8 @@
 #include <optional>
 #include <random>
 
+#include <opencv2/imgproc.hpp>
+
 #include "common/error.h"
 #include "semantic/coco_classes.h"
 
@@ -55,9 +57,29 @@ cv::Rect to_pixels(const cv::Rect2f& box, cv::Size size) {
   return {x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0)};
 }
 
-// The object's pixels in `box` (CV_8UC1 of the box's size, 255 = object), from depth alone.
+// The median-depth usable pixel of the box's central part (box coordinates), or (-1, -1).
+cv::Point centre_seed(const cv::Mat& depth_m, const cv::Mat& usable, const cv::Rect& box, const InstanceMaskParams& p) {
+  const int cw = std::max(1, static_cast<int>(std::round(p.seed_fraction * static_cast<float>(box.width))));
+  const int ch = std::max(1, static_cast<int>(std::round(p.seed_fraction * static_cast<float>(box.height))));
+  const cv::Rect centre((box.width - cw) / 2, (box.height - ch) / 2, cw, ch);
+  std::vector<std::pair<float, cv::Point>> candidates;
+  for (int y = centre.y; y < centre.y + centre.height; ++y)
+    for (int x = centre.x; x < centre.x + centre.width; ++x)
+      if (usable.at<uint8_t>(y, x)) candidates.push_back({depth_m.at<float>(box.y + y, box.x + x), {x, y}});
+  if (candidates.empty()) return {-1, -1};
+  auto mid = candidates.begin() + static_cast<std::ptrdiff_t>(candidates.size() / 2);
+  std::nth_element(candidates.begin(), mid, candidates.end(), [](const auto& a, const auto& b) {
+    return a.first < b.first || (a.first == b.first && (a.second.y < b.second.y ||
+                                                        (a.second.y == b.second.y && a.second.x < b.second.x)));
+  });
+  return mid->second;
+}
+
+// The object's pixels in `box` (CV_8UC1 of the box's size, 255 = object). Grown from the
+// median-depth pixel of the box's centre, or, when `seeds` (CV_8UC1 of the box's size) is given,
+// from its usable non-zero pixels; the seeds themselves are always part of the result.
 cv::Mat grow_from_depth(const cv::Mat& depth_m, const cv::Mat& valid, const cv::Rect& box, const Intrinsics& k,
-                        const InstanceMaskParams& p) {
+                        const InstanceMaskParams& p, const cv::Mat& seeds = cv::Mat()) {
   // 1. Support plane from the band around the box.
   const int mx = static_cast<int>(std::round(p.support_margin * static_cast<float>(box.width)));
   const int my = static_cast<int>(std::round(p.support_margin * static_cast<float>(box.height)));
@@ -86,25 +108,37 @@ cv::Mat grow_from_depth(const cv::Mat& depth_m, const cv::Mat& valid, const cv::
       usable.at<uint8_t>(y, x) = 1;
     }
 
-  // 2. Seed: the median-depth usable pixel of the central part.
-  const int cw = std::max(1, static_cast<int>(std::round(p.seed_fraction * static_cast<float>(box.width))));
-  const int ch = std::max(1, static_cast<int>(std::round(p.seed_fraction * static_cast<float>(box.height))));
-  const cv::Rect centre((box.width - cw) / 2, (box.height - ch) / 2, cw, ch);
-  std::vector<std::pair<float, cv::Point>> candidates;
-  for (int y = centre.y; y < centre.y + centre.height; ++y)
-    for (int x = centre.x; x < centre.x + centre.width; ++x)
-      if (usable.at<uint8_t>(y, x)) candidates.push_back({depth_m.at<float>(box.y + y, box.x + x), {x, y}});
   cv::Mat mask(box.size(), CV_8UC1, cv::Scalar(0));
-  if (candidates.empty()) return mask;
-  auto mid = candidates.begin() + static_cast<std::ptrdiff_t>(candidates.size() / 2);
-  std::nth_element(candidates.begin(), mid, candidates.end(), [](const auto& a, const auto& b) {
-    return a.first < b.first || (a.first == b.first && (a.second.y < b.second.y ||
-                                                        (a.second.y == b.second.y && a.second.x < b.second.x)));
-  });
+  std::vector<cv::Point> stack;
+  if (!seeds.empty()) {
+    // Grow from the seeds' core (a soft segmentation's rim may lie on the background) and only
+    // within seed_depth_window_m of their median depth (a person's legs, not the wall behind).
+    cv::Mat core;
+    const int r = p.seed_erosion_px;
+    cv::erode(seeds, core, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
+    std::vector<float> depths;
+    for (int y = 0; y < box.height; ++y)
+      for (int x = 0; x < box.width; ++x)
+        if (core.at<uint8_t>(y, x) && usable.at<uint8_t>(y, x)) {
+          stack.emplace_back(x, y);
+          mask.at<uint8_t>(y, x) = 255;
+          depths.push_back(depth_m.at<float>(box.y + y, box.x + x));
+        }
+    if (depths.empty()) return seeds.clone();
+    auto mid = depths.begin() + static_cast<std::ptrdiff_t>(depths.size() / 2);
+    std::nth_element(depths.begin(), mid, depths.end());
+    for (int y = 0; y < box.height; ++y)
+      for (int x = 0; x < box.width; ++x)
+        if (std::abs(depth_m.at<float>(box.y + y, box.x + x) - *mid) > p.seed_depth_window_m) usable.at<uint8_t>(y, x) = 0;
+  } else {
+    // 2. Seed: the median-depth usable pixel of the central part.
+    const cv::Point seed = centre_seed(depth_m, usable, box, p);
+    if (seed.x < 0) return mask;
+    stack.push_back(seed);
+    mask.at<uint8_t>(seed) = 255;
+  }
 
   // 3. Region growing over small depth steps.
-  std::vector<cv::Point> stack{mid->second};
-  mask.at<uint8_t>(mid->second) = 255;
   while (!stack.empty()) {
     const cv::Point q = stack.back();
     stack.pop_back();
@@ -118,6 +152,7 @@ cv::Mat grow_from_depth(const cv::Mat& depth_m, const cv::Mat& valid, const cv::
       stack.push_back(r);
     }
   }
+  if (!seeds.empty()) mask.setTo(255, seeds);
   return mask;
 }
 
@@ -150,6 +185,7 @@ InstanceMasks instance_masks(const std::vector<Detection>& detections, const cv:
     cv::Mat mask;
     if (det.class_id == kCocoPersonClass && !person_probability.empty()) {
       cv::compare(person_probability(box), params.person_probability, mask, cv::CMP_GT);
+      if (params.grow_people_over_depth) mask = grow_from_depth(depth_m, valid, box, intrinsics, params, mask);
     } else {
       mask = grow_from_depth(depth_m, valid, box, intrinsics, params);
     }

@@ -15,7 +15,7 @@
 //   4. pixels already claimed by a better-scoring instance stay with it; an instance left with
 //      fewer than min_pixels or less than min_box_fraction of its box is dropped.
 // People (class 0) come from the person segmenter's probability instead when one is given: the
-// box's pixels above person_probability.
+// box's pixels above person_probability, grown over depth as in step 3 (grow_people_over_depth).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -45,6 +45,12 @@ struct InstanceMaskParams {
   int min_pixels = 50;             // smaller instances are dropped
   float min_box_fraction = 0.05f;  // instances covering less of their box are dropped
   float person_probability = 0.5f; // person-segmenter threshold (0..1)
+  // The segmenter (trained on selfies) misses most of the legs: its pixels seed the region growing
+  // of step 3 instead of the box's centre, which adds what joins them over continuous depth (cut
+  // from the floor and the background like any object).
+  bool grow_people_over_depth = true;
+  int seed_erosion_px = 5;           // the segmenter's mask is eroded by this radius before seeding
+  float seed_depth_window_m = 0.6f;  // growth from a segmenter's seeds stays this close to their median depth
   float min_depth_m = 0.1f;        // depth readings outside [min, max] are invalid
   float max_depth_m = 10.f;
 };

@@ -142,6 +142,27 @@ TEST(InstanceMasks, PeopleComeFromThePersonProbability) {
   EXPECT_NEAR(m.instances[0].pixels, CV_PI * 15 * 15, 60);
 }
 
+TEST(InstanceMasks, ThePersonSegmentersPixelsGrowOverDepthToTheLegs) {
+  // The segmenter marks only the upper part of an upright body (as the selfie model does); the
+  // rest joins it over continuous depth, the floor it stands on and the floor behind stay out.
+  const Intrinsics k = small_camera();
+  const Scene s = box_on_floor(k);
+  cv::Mat person(s.depth_m.size(), CV_32FC1, cv::Scalar(0.f));
+  person(cv::Rect(62, 40, 36, 14)).setTo(0.9f);
+  const cv::Rect box(54, 34, 52, 50);
+  const auto grown = instance_masks({detection(0, "person", 0.7f, box)}, s.depth_m, k, {}, person);
+  ASSERT_EQ(grown.instances.size(), 1u);
+  const auto on_object = [&](int x, int y) { return s.object.contains({x, y}); };
+  const auto off_object = [&](int x, int y) { return !s.object.contains({x, y}); };
+  EXPECT_GE(share_with_id(grown.ids, box, on_object, 1), 0.9);
+  EXPECT_LE(share_with_id(grown.ids, box, off_object, 1), 0.01);
+  InstanceMaskParams p;
+  p.grow_people_over_depth = false;
+  const auto plain = instance_masks({detection(0, "person", 0.7f, box)}, s.depth_m, k, p, person);
+  ASSERT_EQ(plain.instances.size(), 1u);
+  EXPECT_EQ(plain.instances[0].pixels, 36 * 14) << "without growing: the segmenter's pixels";
+}
+
 TEST(InstanceMasks, RejectsBadInput) {
   const Intrinsics k = small_camera();
   EXPECT_NE(test::error_of([&] { (void)instance_masks({}, cv::Mat(), k, {}); }), "(no error)");
