@@ -4,5 +4,6 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 "$root/.ci/install-deps.sh"
+"$root/.ci/fetch-models.sh" || echo "run.sh: no detector models (see above); the semantic detector is unavailable"
 "$root/.ci/build.sh"
 exec "$root/build/app/cofusion" run --headless "$@"

