@@ -70,10 +70,14 @@ void write_contents(const SyntheticSequence& seq, const fs::path& dir, const Dat
   std::ostringstream objects;
   objects << "# id name shape first_frame last_frame (instance ids in masks/*.png)\n";
   for (const ObjectInfo& o : seq.objects()) {
-    objects << o.id << " " << o.name << " " << shape_name(o.shape) << " " << o.first_frame << " " << o.last_frame
+    objects << o.id << " " << o.name << " " << (o.kind == ObjectKind::kPerson ? "person" : shape_name(o.shape)) << " "
+            << o.first_frame << " " << o.last_frame
             << "\n";
-    write_trajectory_file(dir / ("groundtruth-" + std::to_string(o.id) + ".txt"), seq.object_trajectory(o.id),
-                          "ground truth pose T_world_object of object " + std::to_string(o.id) + " (" + o.name + ")");
+    const std::string what = o.kind == ObjectKind::kPerson
+                                 ? "ground truth pose T_world_pelvis of person " + std::to_string(o.id) + " (" + o.name +
+                                       "; the pelvis only: the body is not rigid)"
+                                 : "ground truth pose T_world_object of object " + std::to_string(o.id) + " (" + o.name + ")";
+    write_trajectory_file(dir / ("groundtruth-" + std::to_string(o.id) + ".txt"), seq.object_trajectory(o.id), what);
     seq.write_glb(o.id, dir / "geometry" / ("object-" + std::to_string(o.id) + ".glb"));
   }
   write_text_atomically(dir / "objects.txt", objects.str());

@@ -4,9 +4,11 @@
 //   rgb/<t>.png  depth/<t>.png (16-bit, 5000 units per metre)  masks/<t>.png (16-bit instance ids)
 //   masks/classes.txt (id class_name: each object's "class")
 //   rgb.txt  depth.txt  associations.txt  groundtruth.txt (T_world_camera)
-//   groundtruth-<id>.txt (T_world_object, frames where object <id> is present)
-//   objects.txt (id name shape first_frame last_frame)  calibration.txt (fx fy cx cy width height)
-//   geometry/background.glb (world frame)  geometry/object-<id>.glb (object frame)  scene.json
+//   groundtruth-<id>.txt (T_world_object, frames where object <id> is present; a person's pelvis)
+//   objects.txt (id name shape first_frame last_frame; shape "person" for people)
+//   calibration.txt (fx fy cx cy width height)
+//   geometry/background.glb (world frame)  geometry/object-<id>.glb (object frame; people standing
+//   at rest)  scene.json
 // <t> is the frame's timestamp in seconds with 6 decimals (frame / fps).
 // Everything is written into a temporary sibling folder that is renamed to the target at the end,
 // so a failed run leaves no partial output under the target name.

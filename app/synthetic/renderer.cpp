@@ -22,13 +22,13 @@ struct FramePrimitive {
   ShapeF shape;
   Eigen::Vector3f origin, d0, du, dv;
   Eigen::Vector3f to_light;  // unit vector towards the light, primitive frame
-  Eigen::Matrix3f R_world_primitive;  // for background surface points in the world frame
-  Eigen::Vector3f t_world_primitive;
+  Eigen::Matrix3f R_owner_primitive;  // to the owner's frame (world for the background, the object's
+  Eigen::Vector3f t_owner_primitive;  // frame for an object's part), for RenderedFrame::points_object
   int u0 = 0, u1 = -1, v0 = 0, v1 = -1;  // conservative pixel rectangle it can cover
 };
 
-FramePrimitive prepare(const Primitive& p, const Pose& T_world_primitive, const Pose& T_world_camera,
-                       const Intrinsics& K, const Eigen::Vector3d& to_light_world) {
+FramePrimitive prepare(const Primitive& p, const Pose& T_world_primitive, const Pose& T_owner_primitive,
+                       const Pose& T_world_camera, const Intrinsics& K, const Eigen::Vector3d& to_light_world) {
   FramePrimitive f;
   f.primitive = &p;
   f.shape = shape_f(p);
@@ -39,8 +39,8 @@ FramePrimitive prepare(const Primitive& p, const Pose& T_world_primitive, const 
   f.du = (R.col(0) / K.fx).cast<float>();
   f.dv = (R.col(1) / K.fy).cast<float>();
   f.to_light = (T_world_primitive.linear().transpose() * to_light_world).cast<float>();
-  f.R_world_primitive = T_world_primitive.linear().cast<float>();
-  f.t_world_primitive = T_world_primitive.translation().cast<float>();
+  f.R_owner_primitive = T_owner_primitive.linear().cast<float>();
+  f.t_owner_primitive = T_owner_primitive.translation().cast<float>();
 
   // Screen rectangle: project the corners of the shape's bounding box; a corner behind (or nearly
   // at) the camera plane makes it cover the whole image. Rooms always do.
@@ -154,25 +154,43 @@ inline uint64_t pixel_bits(uint64_t key, uint64_t index) { return mix64(key + in
 Renderer::Renderer(const SceneDescription& scene)
     : intrinsics_(scene.camera.intrinsics), light_(scene.light), background_(background_primitives(scene)),
       normal_table_(make_normal_table()) {
-  for (size_t k = 0; k < scene.objects.size(); ++k)
-    objects_.push_back(make_primitive(scene.objects[k].shape, scene.objects[k].texture, static_cast<int>(k + 1)));
+  for (size_t k = 0; k < scene.objects.size(); ++k) {
+    std::vector<Primitive> parts;
+    for (const PartDesc& part : scene.objects[k].parts)
+      parts.push_back(make_primitive(part.shape, part.texture, static_cast<int>(k + 1)));
+    object_parts_.push_back(std::move(parts));
+  }
 }
 
 RenderedFrame Renderer::render(const RenderRequest& req) const {
   const Intrinsics& K = intrinsics_;
   const int W = K.width, H = K.height;
-  if (req.T_world_objects.size() != objects_.size())
+  if (req.T_world_objects.size() != object_parts_.size())
     throw Error("synthetic render: " + std::to_string(req.T_world_objects.size()) + " object poses for " +
-                std::to_string(objects_.size()) + " objects");
+                std::to_string(object_parts_.size()) + " objects");
+  if (!req.T_object_parts.empty() && req.T_object_parts.size() != object_parts_.size())
+    throw Error("synthetic render: part poses for " + std::to_string(req.T_object_parts.size()) + " objects, not " +
+                std::to_string(object_parts_.size()));
+  if (req.covered) return render_covered(req);
 
   const Eigen::Vector3d to_light_world = -light_.direction_world.normalized();
   std::vector<FramePrimitive> prims;
-  prims.reserve(background_.size() + objects_.size());
+  prims.reserve(background_.size() + object_parts_.size());
   for (const Primitive& p : background_)
-    prims.push_back(prepare(p, p.T_world_primitive, req.T_world_camera, K, to_light_world));
-  for (size_t k = 0; k < objects_.size(); ++k)
-    if (req.T_world_objects[k])
-      prims.push_back(prepare(objects_[k], *req.T_world_objects[k], req.T_world_camera, K, to_light_world));
+    prims.push_back(prepare(p, p.T_world_primitive, p.T_world_primitive, req.T_world_camera, K, to_light_world));
+  for (size_t k = 0; k < object_parts_.size(); ++k) {
+    if (!req.T_world_objects[k]) continue;
+    const std::vector<Primitive>& parts = object_parts_[k];
+    const std::vector<Pose>* T_object_parts = req.T_object_parts.empty() ? nullptr : &req.T_object_parts[k];
+    if (T_object_parts && !T_object_parts->empty() && T_object_parts->size() != parts.size())
+      throw Error("synthetic render: " + std::to_string(T_object_parts->size()) + " part poses for object " +
+                  std::to_string(k + 1) + ", which has " + std::to_string(parts.size()) + " parts");
+    for (size_t i = 0; i < parts.size(); ++i) {
+      const Pose T_object_part = T_object_parts && !T_object_parts->empty() ? (*T_object_parts)[i] : Pose::Identity();
+      prims.push_back(prepare(parts[i], *req.T_world_objects[k] * T_object_part, T_object_part, req.T_world_camera, K,
+                              to_light_world));
+    }
+  }
 
   RenderedFrame out;
   out.rgb.create(H, W, CV_8UC3);
@@ -251,9 +269,7 @@ RenderedFrame Renderer::render(const RenderRequest& req) const {
           const Eigen::Vector3f p_camera(t_best * (uf - cx) / fx, t_best * (vf - cy) / fy, t_best);
           const Eigen::Vector3f pw = R_world_camera * p_camera + t_world_camera;
           out.points_world.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(pw.x(), pw.y(), pw.z());
-          const Eigen::Vector3f po = best->primitive->instance_id == 0
-                                         ? Eigen::Vector3f(best->R_world_primitive * p + best->t_world_primitive)
-                                         : p;
+          const Eigen::Vector3f po = best->R_owner_primitive * p + best->t_owner_primitive;
           out.points_object.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(po.x(), po.y(), po.z());
         }
       }
@@ -329,6 +345,36 @@ RenderedFrame Renderer::render(const RenderRequest& req) const {
       }
     }
   });
+  return out;
+}
+
+RenderedFrame Renderer::render_covered(const RenderRequest& req) const {
+  // A hand over the lens: the depth camera sees nothing in range, the colour camera a little light
+  // through the fingers, under twice the sensor's colour noise (the camera's gain is up in the dark).
+  const int W = intrinsics_.width, H = intrinsics_.height;
+  RenderedFrame out;
+  out.depth_m = cv::Mat::zeros(H, W, CV_32FC1);
+  out.depth_true_m = cv::Mat::zeros(H, W, CV_32FC1);
+  out.instance_ids = cv::Mat::zeros(H, W, CV_16UC1);
+  out.cos_incidence = cv::Mat::zeros(H, W, CV_32FC1);
+  if (req.surface_points) {
+    out.points_world = cv::Mat::zeros(H, W, CV_32FC3);
+    out.points_object = cv::Mat::zeros(H, W, CV_32FC3);
+  }
+  out.rgb.create(H, W, CV_8UC3);
+  const Eigen::Vector3f base(12, 7, 6);  // dark, faintly reddish
+  const float sigma = 2.0f * static_cast<float>(req.noise.color_sigma);
+  const uint64_t color_key = frame_key(req.seed, req.frame_index, kColorStream);
+  for (int v = 0; v < H; ++v) {
+    auto* rgb = out.rgb.ptr<cv::Vec3b>(v);
+    for (int u = 0; u < W; ++u) {
+      const uint64_t bits = pixel_bits(color_key, static_cast<uint64_t>(v) * W + u);
+      const Eigen::Vector3f c = base + sigma * Eigen::Vector3f(triangular(static_cast<uint32_t>(bits)),
+                                                               triangular(static_cast<uint32_t>(bits >> 20)),
+                                                               triangular(static_cast<uint32_t>(bits >> 40)));
+      for (int ch = 0; ch < 3; ++ch) rgb[u][ch] = static_cast<uint8_t>(std::clamp(c[ch], 0.0f, 255.0f) + 0.5f);
+    }
+  }
   return out;
 }
 

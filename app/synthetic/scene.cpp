@@ -1,15 +1,18 @@
 #include "synthetic/scene.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "common/error.h"
 #include "embedded_assets.h"
 #include "io/instance_classes.h"
+#include "synthetic/articulation.h"
 #include "synthetic/motion.h"
 
 namespace cofusion::synthetic {
@@ -263,6 +266,7 @@ KeyframedPath parse_path(const Node& owner, double fps, bool allow_look_at) {
       kf.t_s = k.number("t");
       if (kf.t_s < 0) k.fail("t", "must be >= 0");
     }
+    kf.rotation_given = k.has("rotation") || k.has("quaternion") || k.has("look_at");
     kf.pose = parse_pose(k, allow_look_at);
     if (!path.keyframes.empty() && kf.t_s <= path.keyframes.back().t_s)
       k.fail_here("keyframes must be in strictly increasing time");
@@ -331,7 +335,87 @@ TextureDesc plain(float r, float g, float b) {
   return t;
 }
 
+// "[first, last]" frame numbers with 0 <= first <= last.
+std::pair<int, int> parse_frame_range(const Node& n, const std::string& key) {
+  const Eigen::Vector2d range = n.vec<2>(key);
+  if (range[0] != std::floor(range[0]) || range[1] != std::floor(range[1]) || range[0] < 0 || range[1] < range[0] ||
+      range[1] > 1e9)
+    n.fail(key, "expected [first, last] frame numbers with 0 <= first <= last");
+  return {static_cast<int>(range[0]), static_cast<int>(range[1])};
+}
+
+PersonDesc parse_person(const Node& n) {
+  PersonDesc p;
+  p.height_m = n.positive("height_m", p.height_m);
+  if (p.height_m < 0.5 || p.height_m > 2.5) n.fail("height_m", "must be in [0.5, 2.5] metres");
+  if (n.has("gait")) {
+    const Node g = n.object("gait");
+    p.gait.step_hz = g.positive("step_hz", p.gait.step_hz);
+    if (p.gait.step_hz > 5) g.fail("step_hz", "must be in (0, 5] steps per second");
+    auto angle = [&](const char* key, double fallback) {
+      const double d = g.non_negative(key, fallback);
+      if (d > 80) g.fail(key, "must be in [0, 80] degrees");
+      return d;
+    };
+    p.gait.arm_swing_deg = angle("arm_swing_deg", p.gait.arm_swing_deg);
+    p.gait.leg_swing_deg = angle("leg_swing_deg", p.gait.leg_swing_deg);
+    p.gait.torso_twist_deg = angle("torso_twist_deg", p.gait.torso_twist_deg);
+    p.gait.phase_deg = g.number("phase_deg", p.gait.phase_deg);
+    g.finish();
+  }
+  ClothesDesc& c = p.clothes;
+  c = {plain(225, 175, 140), plain(60, 90, 160), plain(50, 52, 62), plain(30, 26, 22), plain(60, 42, 28)};
+  if (n.has("clothes")) {
+    const Node k = n.object("clothes");
+    c.skin = texture_or(k, "skin", c.skin);
+    c.shirt = texture_or(k, "shirt", c.shirt);
+    c.trousers = texture_or(k, "trousers", c.trousers);
+    c.shoes = texture_or(k, "shoes", c.shoes);
+    c.hair = texture_or(k, "hair", c.hair);
+    k.finish();
+  }
+  return p;
+}
+
+ObjectDesc parse_object(const Node& n, double fps, size_t index) {
+  ObjectDesc d;
+  d.name = n.string("name", "object-" + std::to_string(index + 1));
+  d.class_name = parse_class(n, d.name);
+  const std::string kind = n.string("kind", "rigid");
+  if (kind == "rigid") d.kind = ObjectKind::kRigid;
+  else if (kind == "person") d.kind = ObjectKind::kPerson;
+  else n.fail("kind", "unknown object kind '" + kind + "' (rigid, person)");
+  if (d.kind == ObjectKind::kRigid) {
+    d.shape = parse_shape(n);
+    d.texture = texture_or(n, "texture", plain(128, 128, 128));
+    d.parts = {PartDesc{"body", d.shape, d.texture}};
+  } else {
+    for (const char* key : {"shape", "size", "radius", "height"})
+      if (n.has(key)) n.fail(key, "a person has no shape: its body is built from 'height_m'");
+    if (n.has("texture")) n.fail("texture", "a person's colours are given by 'clothes'");
+    d.person = parse_person(n);
+    d.parts = person_parts(d.person);
+  }
+  if (n.has("pose") == n.has("keyframes")) n.fail_here("give exactly one of 'pose' and 'keyframes'");
+  if (n.has("pose")) {
+    const Node pose = n.object("pose");
+    const bool rotated = pose.has("rotation") || pose.has("quaternion");
+    d.path.keyframes.push_back({0.0, parse_pose(pose, false), rotated});
+  } else {
+    d.path = parse_path(n, fps, false);
+  }
+  if (n.has("present_frames")) std::tie(d.first_frame, d.last_frame) = parse_frame_range(n, "present_frames");
+  n.finish();
+  return d;
+}
+
 }  // namespace
+
+bool SceneDescription::covered(int frame) const {
+  return std::any_of(occlusions.begin(), occlusions.end(), [&](const OcclusionDesc& o) {
+    return o.kind == OcclusionKind::kCovered && frame >= o.first_frame && frame <= o.last_frame;
+  });
+}
 
 SceneDescription parse_scene(std::string_view json_text, const std::string& origin) {
   json root;
@@ -420,30 +504,22 @@ SceneDescription parse_scene(std::string_view json_text, const std::string& orig
   }
 
   if (top.has("objects")) {
-    for (const Node& n : top.array_of_objects("objects")) {
-      ObjectDesc d;
-      d.name = n.string("name", "object-" + std::to_string(s.objects.size() + 1));
-      d.class_name = parse_class(n, d.name);
-      d.shape = parse_shape(n);
-      d.texture = texture_or(n, "texture", plain(128, 128, 128));
-      if (n.has("pose") == n.has("keyframes")) n.fail_here("give exactly one of 'pose' and 'keyframes'");
-      if (n.has("pose")) {
-        d.path.keyframes.push_back({0.0, parse_pose(n.object("pose"), false)});
-      } else {
-        d.path = parse_path(n, s.fps, false);
-      }
-      if (n.has("present_frames")) {
-        const Eigen::Vector2d range = n.vec<2>("present_frames");
-        if (range[0] != std::floor(range[0]) || range[1] != std::floor(range[1]) || range[0] < 0 ||
-            range[1] < range[0])
-          n.fail("present_frames", "expected [first, last] frame numbers with 0 <= first <= last");
-        d.first_frame = static_cast<int>(range[0]);
-        d.last_frame = static_cast<int>(range[1]);
-      }
-      n.finish();
-      s.objects.push_back(d);
-    }
+    for (const Node& n : top.array_of_objects("objects")) s.objects.push_back(parse_object(n, s.fps, s.objects.size()));
     if (s.objects.size() > 65535) top.fail("objects", "at most 65535 objects (16-bit instance ids)");
+  }
+
+  if (top.has("occlusions")) {
+    for (const Node& n : top.array_of_objects("occlusions")) {
+      OcclusionDesc o;
+      const auto [first, last] = parse_frame_range(n, "frames");
+      o.first_frame = first;
+      o.last_frame = last;
+      const std::string kind = n.string("kind", "covered");
+      if (kind == "covered") o.kind = OcclusionKind::kCovered;
+      else n.fail("kind", "unknown occlusion kind '" + kind + "' (covered)");
+      n.finish();
+      s.occlusions.push_back(o);
+    }
   }
   top.finish();
   return s;

@@ -20,7 +20,13 @@
 //               "top_thickness_m": 0.04, "legs": true, "leg_width_m": 0.06, "texture": TEX, "leg_texture": TEX},
 //     "static":  [ {"name": "...", SHAPE, "texture": TEX, "pose": POSE} ],
 //     "objects": [ {"name": "...", "class": "box", SHAPE, "texture": TEX, "present_frames": [first, last],
-//                   "interpolation": "linear" | "smooth", "keyframes": [ KEY, ... ] (or "pose": POSE)} ]
+//                   "interpolation": "linear" | "smooth", "keyframes": [ KEY, ... ] (or "pose": POSE)},
+//                  {"name": "...", "class": "person", "kind": "person", "height_m": 1.75, "present_frames": [first, last],
+//                   "interpolation": ..., "keyframes": [ KEY, ... ] (feet on the floor, see PersonDesc),
+//                   "gait": {"step_hz": 1.8, "arm_swing_deg": 25, "leg_swing_deg": 25, "torso_twist_deg": 6,
+//                            "phase_deg": 0},
+//                   "clothes": {"skin": TEX, "shirt": TEX, "trousers": TEX, "shoes": TEX, "hair": TEX}} ],
+//     "occlusions": [ {"frames": [first, last], "kind": "covered"} ]
 //   }
 //   SHAPE: "shape": "box", "size": [sx,sy,sz] | "shape": "sphere", "radius": r
 //        | "shape": "cylinder", "radius": r, "height": h        (centred on the object origin, axis z)
@@ -66,6 +72,7 @@ struct TextureDesc {
 struct Keyframe {
   double t_s = 0;  // seconds from the first frame ("frame": n is stored as n / fps)
   Pose pose = Pose::Identity();
+  bool rotation_given = false;  // the key named a rotation (otherwise pose.linear() is identity)
 };
 
 enum class Interpolation { kLinear, kSmooth };  // smooth: ease in/out (smoothstep) on each segment
@@ -119,15 +126,70 @@ struct StaticDesc {
   Pose T_world_object = Pose::Identity();
 };
 
-// A rigid object with its own instance id (1-based position in SceneDescription::objects).
+// One rigid piece of an object, placed in the object's frame by a pose that may change every frame
+// (articulation.h computes it). Every part of an object carries the object's instance id.
+struct PartDesc {
+  std::string name;  // "body" for a rigid object; "torso", "left_thigh", ... for a person
+  ShapeDesc shape;
+  TextureDesc texture;
+};
+
+// Walking gait of a person. One gait cycle (a stride: a left and a right step) takes 2 / step_hz
+// seconds; the swings are scaled down when the person walks slower than kFullGaitSpeed and vanish
+// when it stands still.
+struct GaitDesc {
+  double step_hz = 1.8;          // steps per second
+  double arm_swing_deg = 25;     // shoulder swing amplitude, each way from hanging straight down
+  double leg_swing_deg = 25;     // hip swing amplitude, each way from vertical. Feet that do not
+                                 // slide: asin(speed / (2 step_hz 0.49 height_m)), about 22 degrees
+                                 // at 1.3 m/s, 1.9 steps/s and 1.75 m
+  double torso_twist_deg = 6;    // chest yaw against the pelvis, in time with the arms
+  double phase_deg = 0;          // offset of the cycle, so that people in one scene are not in step
+};
+
+struct ClothesDesc {
+  TextureDesc skin, shirt, trousers, shoes, hair;
+};
+
+// An articulated, non-rigid person built from primitives (torso, pelvis, neck, head, upper and lower
+// arms, hands, thighs, shanks, feet). Its object frame is the pelvis: origin between the hip joints,
+// x forward (the way it faces), y to its left, z up. The keyframes give the point on the floor below
+// the pelvis (their z is the floor height there, usually 0); the pelvis rides above it at hip height,
+// rising and falling with the stride so that the lower foot touches the floor. Keys without a
+// rotation make the body face its direction of travel (yaw from the path, smoothed over
+// kHeadingWindow_s); once any key gives a rotation, the keys' rotations are used as for rigid objects.
+struct PersonDesc {
+  double height_m = 1.75;  // floor to the top of the head, standing
+  GaitDesc gait;
+  ClothesDesc clothes;
+};
+
+enum class ObjectKind { kRigid, kPerson };
+
+// An object with its own instance id (1-based position in SceneDescription::objects): a rigid shape
+// (kind kRigid: one part, "body", at the object origin) or a person (kind kPerson: the body parts
+// from person_parts(), moved by the gait).
 struct ObjectDesc {
   std::string name;
   std::string class_name;         // semantic class ("box", "can", "person", ...), required, one word
-  ShapeDesc shape;
-  TextureDesc texture;
-  KeyframedPath path;             // T_world_object over time
+  ObjectKind kind = ObjectKind::kRigid;
+  ShapeDesc shape;                // kRigid: the shape (also parts[0])
+  TextureDesc texture;            // kRigid
+  PersonDesc person;              // kPerson
+  std::vector<PartDesc> parts;    // what is rendered, in the object frame; at least one
+  KeyframedPath path;             // kRigid: T_world_object over time; kPerson: the floor path (see PersonDesc)
   int first_frame = 0;            // present (rendered, has ground truth) in [first_frame, last_frame]
   int last_frame = 1 << 30;
+};
+
+// Something between the scene and the sensor for a span of frames. kCovered: the lens is covered
+// (a hand over it): no depth at all and a nearly black, noisy colour image; the camera keeps moving
+// on its path and its ground truth is the true pose.
+enum class OcclusionKind { kCovered };
+
+struct OcclusionDesc {
+  int first_frame = 0, last_frame = 0;  // inclusive
+  OcclusionKind kind = OcclusionKind::kCovered;
 };
 
 struct SceneDescription {
@@ -145,6 +207,10 @@ struct SceneDescription {
   std::optional<TableDesc> table;
   std::vector<StaticDesc> statics;
   std::vector<ObjectDesc> objects;
+  std::vector<OcclusionDesc> occlusions;
+
+  // The lens is covered at `frame` (an occlusion of kind kCovered spans it).
+  bool covered(int frame) const;
 };
 
 // Parses a scene. `origin` names the file (or built-in scene) in error messages, which read

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "common/error.h"
+#include "synthetic/articulation.h"
 #include "synthetic/gltf_export.h"
 #include "synthetic/motion.h"
 
@@ -44,7 +45,7 @@ std::vector<ObjectInfo> SyntheticSequence::objects() const {
   std::vector<ObjectInfo> out;
   for (int id = 1; id <= object_count(); ++id) {
     const ObjectDesc& d = scene_.objects[id - 1];
-    out.push_back({id, d.name, d.class_name, d.shape.shape, d.first_frame, std::min(d.last_frame, frames_ - 1)});
+    out.push_back({id, d.name, d.class_name, d.kind, d.shape.shape, d.first_frame, std::min(d.last_frame, frames_ - 1)});
   }
   return out;
 }
@@ -54,7 +55,18 @@ std::optional<Pose> SyntheticSequence::T_world_object(int id, int frame) const {
   check_frame(frame);
   const ObjectDesc& d = scene_.objects[id - 1];
   if (frame < d.first_frame || frame > d.last_frame) return std::nullopt;
-  return interpolate(d.path, timestamp_s(frame));
+  return object_pose(d, timestamp_s(frame));
+}
+
+std::vector<Pose> SyntheticSequence::T_object_parts(int id, int frame) const {
+  check_object(id);
+  check_frame(frame);
+  return part_poses(scene_.objects[id - 1], timestamp_s(frame));
+}
+
+bool SyntheticSequence::covered(int frame) const {
+  check_frame(frame);
+  return scene_.covered(frame);
 }
 
 RenderedFrame SyntheticSequence::render(int frame, bool surface_points) const {
@@ -62,7 +74,12 @@ RenderedFrame SyntheticSequence::render(int frame, bool surface_points) const {
   RenderRequest req;
   req.frame_index = frame;
   req.T_world_camera = T_world_camera(frame);
-  for (int id = 1; id <= object_count(); ++id) req.T_world_objects.push_back(T_world_object(id, frame));
+  for (int id = 1; id <= object_count(); ++id) {
+    req.T_world_objects.push_back(T_world_object(id, frame));
+    req.T_object_parts.push_back(scene_.objects[id - 1].kind == ObjectKind::kRigid ? std::vector<Pose>{}
+                                                                                    : T_object_parts(id, frame));
+  }
+  req.covered = scene_.covered(frame);
   req.noise = noise_;
   req.seed = seed_;
   req.surface_points = surface_points;
@@ -91,7 +108,21 @@ double SyntheticSequence::distance_to_surface_m(int id, const Eigen::Vector3d& p
     return best;
   }
   check_object(id);
-  return std::abs(renderer_.objects()[id - 1].signed_distance(p));
+  return distance_to_parts_m(id, p, rest_part_poses(scene_.objects[id - 1]));
+}
+
+double SyntheticSequence::distance_to_surface_m(int id, const Eigen::Vector3d& p, int frame) const {
+  if (id == 0) return distance_to_surface_m(0, p);
+  return distance_to_parts_m(id, p, T_object_parts(id, frame));
+}
+
+double SyntheticSequence::distance_to_parts_m(int id, const Eigen::Vector3d& p,
+                                              const std::vector<Pose>& T_object_parts) const {
+  const std::vector<Primitive>& parts = renderer_.object_parts()[id - 1];
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < parts.size(); ++i)
+    best = std::min(best, std::abs(parts[i].signed_distance(T_object_parts[i].inverse() * p)));
+  return best;
 }
 
 Mesh SyntheticSequence::mesh(int id, int segments) const {
@@ -102,7 +133,11 @@ Mesh SyntheticSequence::mesh(int id, int segments) const {
     return m;
   }
   check_object(id);
-  return tessellate(renderer_.objects()[id - 1], segments);
+  const std::vector<Primitive>& parts = renderer_.object_parts()[id - 1];
+  const std::vector<Pose> T_object_parts = rest_part_poses(scene_.objects[id - 1]);
+  Mesh m;
+  for (size_t i = 0; i < parts.size(); ++i) m.append(tessellate(parts[i], segments), T_object_parts[i].cast<float>());
+  return m;
 }
 
 void SyntheticSequence::write_glb(int id, const std::filesystem::path& path) const {

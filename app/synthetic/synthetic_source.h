@@ -21,7 +21,8 @@ struct ObjectInfo {
   int id = 0;  // instance id in masks (1-based)
   std::string name;
   std::string class_name;
-  Shape shape = Shape::kBox;
+  ObjectKind kind = ObjectKind::kRigid;
+  Shape shape = Shape::kBox;  // rigid objects
   // Present in [first_frame, last_frame], clipped to the sequence (first > last: never present).
   int first_frame = 0, last_frame = 0;
 };
@@ -47,8 +48,13 @@ class SyntheticSequence {
   int object_count() const { return static_cast<int>(scene_.objects.size()); }
   // Instance id -> the object's class, for every object (shared by all frames).
   const std::shared_ptr<const InstanceClasses>& mask_classes() const { return mask_classes_; }
-  // T_world_object of object `id` (1-based) at `frame`, or nullopt when it is absent then.
+  // T_world_object of object `id` (1-based) at `frame`, or nullopt when it is absent then. For a
+  // person, the pelvis (articulation.h), which is not a rigid body: its limbs move in this frame.
   std::optional<Pose> T_world_object(int id, int frame) const;
+  // T_object_part of each part of object `id` (ObjectDesc::parts order) at `frame`, present or not.
+  std::vector<Pose> T_object_parts(int id, int frame) const;
+  // The lens is covered at `frame` (SceneDescription::occlusions): no depth, a dark image.
+  bool covered(int frame) const;
 
   // Colour, noisy and true depth, instance ids (and surface points on request) of one frame.
   RenderedFrame render(int frame, bool surface_points = false) const;
@@ -56,10 +62,14 @@ class SyntheticSequence {
   // table, intrinsics, T_world_camera_gt.
   Frame frame(int frame) const;
 
-  // Distance (metres) from p to the visible surface of object `id`, p in that object's frame; id 0:
-  // the static background, p in the world frame.
+  // Distance (metres) from p to the visible surface of object `id`, p in that object's frame, with
+  // its parts at rest (rest_part_poses: a person standing, limbs straight); id 0: the static
+  // background, p in the world frame.
   double distance_to_surface_m(int id, const Eigen::Vector3d& p) const;
-  // Triangle mesh of object `id` in its own frame; id 0: the static background in the world frame.
+  // The same with the parts posed as at `frame` (an articulated object's shape changes over time).
+  double distance_to_surface_m(int id, const Eigen::Vector3d& p, int frame) const;
+  // Triangle mesh of object `id` in its own frame, parts at rest; id 0: the static background in
+  // the world frame.
   Mesh mesh(int id, int segments = 32) const;
   // Writes mesh(id) as a binary glTF 2.0 file (atomically).
   void write_glb(int id, const std::filesystem::path& path) const;
@@ -74,6 +84,7 @@ class SyntheticSequence {
  private:
   void check_frame(int frame) const;
   void check_object(int id) const;
+  double distance_to_parts_m(int id, const Eigen::Vector3d& p, const std::vector<Pose>& T_object_parts) const;
 
   SceneDescription scene_;
   Renderer renderer_;

@@ -24,7 +24,8 @@ bool identical(const cv::Mat& a, const cv::Mat& b) {
 }
 
 // Largest distance (metres) between a back-projected noiseless depth pixel and the surface of the
-// object its instance id names, in that object's ground-truth frame (world for the background).
+// object its instance id names, in that object's ground-truth frame (world for the background),
+// with an articulated object's parts posed as at that frame.
 struct GeometryCheck {
   double max_error_m = 0;
   int checked = 0;
@@ -50,7 +51,7 @@ GeometryCheck check_geometry(const SyntheticSequence& seq, int frame, int step) 
       const Eigen::Vector3d p_world = T_world_camera * back_project(K, u, v, z);
       EXPECT_TRUE(id == 0 || T_object_world[id].has_value()) << "pixel labelled with an absent object " << id;
       const Eigen::Vector3d p = id == 0 ? p_world : *T_object_world[id] * p_world;
-      out.max_error_m = std::max(out.max_error_m, seq.distance_to_surface_m(id, p));
+      out.max_error_m = std::max(out.max_error_m, seq.distance_to_surface_m(id, p, frame));
       ++out.checked;
     }
   return out;
@@ -90,6 +91,7 @@ TEST(SyntheticRender, NoiselessDepthLiesOnTheLabelledObjectsSurface) {
     seq.set_noise(KinectNoiseParams::none());
     for (int frame : {0, seq.size() / 3, 2 * seq.size() / 3, seq.size() - 1}) {
       SCOPED_TRACE("frame " + std::to_string(frame));
+      if (seq.covered(frame)) continue;  // a covered lens sees nothing (tested in person_test.cpp)
       const GeometryCheck c = check_geometry(seq, frame, 2);
       EXPECT_EQ(c.missing_depth, 0);  // the camera is inside the room: every ray hits something
       EXPECT_GT(c.checked, 70000);
@@ -121,7 +123,7 @@ TEST(SyntheticRender, SurfacePointsMatchDepthAndPoses) {
 // Independent check of masks and depth: sphere tracing on the primitives' signed distances (double
 // precision, no ray-intersection code shared with the renderer).
 TEST(SyntheticRender, MasksAgreeWithAnIndependentSphereTracer) {
-  for (const char* name : {"one_object", "handover", "table_placement"}) {
+  for (const char* name : {"one_object", "handover", "table_placement", "walking_people"}) {
     SCOPED_TRACE(name);
     SyntheticSequence seq(load_scene(name));
     seq.set_noise(KinectNoiseParams::none());
@@ -134,8 +136,13 @@ TEST(SyntheticRender, MasksAgreeWithAnIndependentSphereTracer) {
     };
     std::vector<Placed> placed;
     for (const Primitive& p : seq.renderer().background()) placed.push_back({&p, p.T_world_primitive.inverse()});
-    for (int id = 1; id <= seq.object_count(); ++id)
-      if (auto T = seq.T_world_object(id, frame)) placed.push_back({&seq.renderer().objects()[id - 1], T->inverse()});
+    for (int id = 1; id <= seq.object_count(); ++id) {
+      const auto T = seq.T_world_object(id, frame);
+      if (!T) continue;
+      const std::vector<Pose> T_object_parts = seq.T_object_parts(id, frame);
+      const auto& parts = seq.renderer().object_parts()[id - 1];
+      for (size_t i = 0; i < parts.size(); ++i) placed.push_back({&parts[i], (*T * T_object_parts[i]).inverse()});
+    }
     int compared = 0, mismatched = 0, converged = 0;
     double max_depth_error = 0;
     const Intrinsics& K = seq.intrinsics();
@@ -210,11 +217,16 @@ TEST(SyntheticRender, EveryShippedSceneRendersWithPlausibleMotion) {
     double max_id = 0;
     cv::minMaxLoc(r.instance_ids, nullptr, &max_id);
     EXPECT_LE(max_id, seq.object_count());
-    // Hand-held camera and carried objects: centimetres and a few degrees per frame at most.
+    // Hand-held camera and carried objects: centimetres and a few degrees per frame at most (people
+    // walk up to 1.4 m/s: under 5 cm). camera_loss's whip pan is meant to be fast (tested in
+    // person_test.cpp).
+    const bool whip_pan = name == "camera_loss";
     for (int f = 0; f + 1 < seq.size(); ++f) {
       const Pose dc = seq.T_world_camera(f).inverse() * seq.T_world_camera(f + 1);
       EXPECT_LT(dc.translation().norm(), 0.02) << "camera, frame " << f;
-      EXPECT_LT(Eigen::AngleAxisd(dc.linear()).angle(), 2 * std::numbers::pi / 180) << "camera, frame " << f;
+      if (!whip_pan) {
+        EXPECT_LT(Eigen::AngleAxisd(dc.linear()).angle(), 2 * std::numbers::pi / 180) << "camera, frame " << f;
+      }
       for (int id = 1; id <= seq.object_count(); ++id) {
         const auto a = seq.T_world_object(id, f), b = seq.T_world_object(id, f + 1);
         if (!a || !b) continue;

@@ -41,7 +41,7 @@ std::string load_error(const json& j, const std::string& file_name = "bad_scene.
 
 TEST(SyntheticScene, ShippedScenesParse) {
   const auto names = builtin_scene_names();
-  for (const char* required : {"static_room", "one_object", "table_placement", "handover"})
+  for (const char* required : {"static_room", "one_object", "table_placement", "handover", "walking_people", "camera_loss"})
     EXPECT_NE(std::find(names.begin(), names.end(), required), names.end()) << required;
   EXPECT_NE(std::find(names.begin(), names.end(), std::string(kDefaultScene)), names.end());
   for (const auto& name : names) {
