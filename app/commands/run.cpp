@@ -72,13 +72,15 @@ renderer::VirtualCamera overview_camera(const Intrinsics& intrinsics, const Pose
 }
 
 // A frame with no usable depth cannot be tracked or fused: reject it with its index and time.
-void check_frame(const Frame& frame, const Intrinsics& intrinsics) {
+// The first frame starts the map and needs depth; a later frame without any (a covered lens, a
+// dropped sensor frame) is a frame the camera is lost in (CoFusion relocalises after it).
+void check_frame(const Frame& frame, const Intrinsics& intrinsics, bool first) {
   if (frame.depth_m.cols != intrinsics.width || frame.depth_m.rows != intrinsics.height)
     throw Error("frame " + std::to_string(frame.index) + ": depth is " + std::to_string(frame.depth_m.cols) + "x" +
                 std::to_string(frame.depth_m.rows) + " but the intrinsics say " + std::to_string(intrinsics.width) + "x" +
                 std::to_string(intrinsics.height));
   const int valid = cv::countNonZero(frame.depth_m > 0.0f);  // NaN compares false
-  if (valid == 0)
+  if (valid == 0 && first)
     throw Error("frame " + std::to_string(frame.index) + " (t=" + std::to_string(frame.timestamp_s) +
                 "): no valid depth reading (all zero or NaN)");
 }
@@ -205,7 +207,7 @@ void run(const RunOptions& o) {
       frame = source->next();
     }
     if (!frame) break;
-    check_frame(*frame, intrinsics);
+    check_frame(*frame, intrinsics, frames == 0);
     const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
     const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
     slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data);

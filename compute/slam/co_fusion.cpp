@@ -1,6 +1,7 @@
 #include "slam/co_fusion.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -165,9 +166,9 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
     throw Error("lifecycle.max_active_models must be in [1, " + std::to_string(kMoverSlot) + "]");
   const RelocalisationParams& reloc = params.relocalisation;
   if (reloc.candidate_keyframes < 0 || reloc.recent_frames < 1 || !(reloc.min_inlier_ratio_rel >= 0) ||
-      !(reloc.max_rms_rel > 0) || reloc.settle_frames < 0)
+      !(reloc.max_rms_rel > 0) || reloc.settle_frames < 0 || reloc.tracking_passes < 1)
     throw Error("relocalisation: candidate_keyframes and settle_frames must be >= 0, recent_frames >= 1, "
-                "min_inlier_ratio_rel >= 0, max_rms_rel > 0");
+                "min_inlier_ratio_rel >= 0, max_rms_rel > 0, tracking_passes >= 1");
   const LifecycleParams& life = params.lifecycle;
   if (life.rigidity_trial_frames < 0 || life.rigidity_max_failures < 1 ||
       !(life.rigid_min_explained_fraction >= 0 && life.rigid_min_explained_fraction <= 1) ||
@@ -276,6 +277,9 @@ void CoFusion::hold_still(const std::vector<Model*>& active, const std::string& 
 bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding) {
   const RelocalisationParams& p = params_.relocalisation;
   std::vector<Eigen::Isometry3d> starts{T_world_camera_};  // T_world_camera
+  for (const Eigen::Isometry3d& T : keyframes_.pnp_poses(encoding, keyframes_.features(live_rgb_, live_depth_m_, intrinsics_), intrinsics_))
+    starts.push_back(T);
+  if (closest_attempt_) starts.push_back(closest_attempt_->second);
   for (const Eigen::Isometry3d& T : keyframes_.nearest(encoding, p.candidate_keyframes)) starts.push_back(T);
   PredictionParams prediction;
   prediction.min_confidence = params_.slam.fusion.stable_confidence;
@@ -296,15 +300,17 @@ bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding) {
   const double max_rms = recent_tracking_.empty() ? std::numeric_limits<double>::infinity()
                                                   : p.max_rms_rel * median([](const auto& r) { return r.second; });
   std::optional<std::pair<TrackingResult, Eigen::Isometry3d>> best;  // with T_world_live
+  std::optional<std::pair<double, Eigen::Isometry3d>> closest_failure;  // (RMS m, T_world_live)
   TrackingResult failure;
   failure.failed = true;
   failure.failure_reason = "lost; relocalisation found no alignment";
   for (const Eigen::Isometry3d& T_world_start : starts) {
     predict_at(T_world_start);
     TrackingResult r = bg.tracker.track(bg.stream, live_.levels, bg.prediction.levels, Eigen::Isometry3d::Identity());
-    // Once more from where it got to: tracking's statistics are those of its last iteration, which
-    // from a distant start is not converged yet (the finest level runs few iterations).
-    if (!r.failed) r = bg.tracker.track(bg.stream, live_.levels, bg.prediction.levels, r.T_reference_live);
+    // Again from where it got to: tracking's statistics are those of its last iteration, which from
+    // a distant start is not converged yet (the finest level runs few iterations).
+    for (int pass = 1; pass < p.tracking_passes && !r.failed; ++pass)
+      r = bg.tracker.track(bg.stream, live_.levels, bg.prediction.levels, r.T_reference_live);
     if (!r.failed && (r.inlier_ratio < min_ratio || r.icp_rms_m > max_rms)) {
       char why[160];
       std::snprintf(why, sizeof why, "lost; a relocalisation reached inlier ratio %.3f (needs %.3f), RMS %.4f m (at most %.4f)",
@@ -313,12 +319,16 @@ bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding) {
       r.failure_reason = why;
     }
     if (r.failed) {
+      // The camera keeps moving while it is lost: the closest miss is the next frame's best start.
+      if (r.icp_inliers > 0 && (!closest_failure || r.icp_rms_m < closest_failure->first))
+        closest_failure.emplace(r.icp_rms_m, T_world_start * r.T_reference_live);
       failure = r;
       continue;
     }
     if (!best || r.inlier_ratio > best->first.inlier_ratio) best.emplace(r, T_world_start * r.T_reference_live);
   }
   bg.tracked = true;
+  closest_attempt_ = best ? std::nullopt : closest_failure;
   if (!best) {
     bg.tracking = failure;
     hold_still(live_models(), failure.failure_reason);
@@ -489,6 +499,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
       superpixels = segmenter_.superpixels(rgb, depth_m, width, height);
       sp_end = Clock::now();
     });
+  live_rgb_ = rgb, live_depth_m_ = depth_m;
   // The frame's keyframe encoding: for relocalisation now when lost, else for the database later.
   FrameEncoding encoding;
   const auto encode = [&] { encoding = keyframes_.encode(rgb, depth_m, width, height); };
@@ -606,7 +617,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
   out.labels.assign(n, 0xFFFF);
   if (camera != CameraState::kLost)
     for (size_t i = 0; i < n; ++i) out.labels[i] = slots_[i] < kMoverSlot ? slot_to_id[slots_[i]] : uint16_t{0xFFFF};
-  if (camera == CameraState::kTracking) keyframes_.add_if_novel(encoding, T_world_camera_);
+  if (camera == CameraState::kTracking && keyframes_.novel(T_world_camera_))
+    keyframes_.add_if_novel(encoding, keyframes_.features(rgb, depth_m, intrinsics_), T_world_camera_);
   if (camera == CameraState::kTracking && frame_ > 0) {
     recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
@@ -701,13 +713,13 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   // spawn_max_area_fraction of the image is a candidate new model; it spawns one once it was a
   // candidate in the previous frame too (several objects starting to move at once each spawn).
   segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
-  const std::vector<char> mover = mark_movers(outlier, slots);
+  const std::vector<char> no_spawn = mark_movers(outlier, slots);
   std::vector<std::vector<size_t>> regions;  // pixels of each large outlier region, largest first
   {
     std::vector<int> large_components;
     for (int c = 0; c < int(components_.components.size()); ++c) {
       const auto& info = components_.components[size_t(c)];
-      if (info.value == outlier && !mover[size_t(c)] && double(info.pixels) > p.spawn_min_area_fraction * double(n) &&
+      if (info.value == outlier && !no_spawn[size_t(c)] && double(info.pixels) > p.spawn_min_area_fraction * double(n) &&
           double(info.pixels) <= p.spawn_max_area_fraction * double(n))
         large_components.push_back(c);
     }
@@ -888,24 +900,39 @@ void CoFusion::drop_nonrigid(const std::vector<Model*>& order, const std::vector
 
 // Mover regions (LifecycleParams::mover_min_overlap): the outlier components of this frame's
 // segmentation (components_) that overlap the previous frame's mover pixels enough; their pixels
-// become mover pixels. Returns per component whether it is a mover.
+// become mover pixels. Outlier components that overlap as much the previous pixels of a model on
+// its rigidity trial are what its motion leaves unexplained of the body it follows (a person's
+// swinging arm): they spawn nothing while the trial decides. Returns per component whether it may
+// not spawn (a mover, or part of a body on trial).
 std::vector<char> CoFusion::mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const {
   const size_t width = size_t(intrinsics_.width);
-  std::vector<char> mover(components_.components.size(), 0);
-  if (slots_.size() != slots.size()) return mover;
-  std::vector<int64_t> overlap(components_.components.size(), 0);
+  const LifecycleParams& p = params_.lifecycle;
+  std::vector<char> no_spawn(components_.components.size(), 0);
+  if (slots_.size() != slots.size()) return no_spawn;
+  std::array<bool, 256> on_trial{};
+  for (const auto& m : models_)
+    if (m->id != 0 && m->state == ModelState::kActive && frame_ - m->first_frame <= p.rigidity_trial_frames)
+      on_trial[size_t(m->slot)] = true;
+  std::vector<int64_t> mover_overlap(no_spawn.size(), 0), trial_overlap(no_spawn.size(), 0);
   for (const auto& run : components_.runs)
     if (run.component >= 0 && run.value == outlier)
-      for (int x = run.x0; x < run.x1; ++x) overlap[size_t(run.component)] += slots_[size_t(run.y) * width + size_t(x)] == kMoverSlot;
+      for (int x = run.x0; x < run.x1; ++x) {
+        const uint8_t before = slots_[size_t(run.y) * width + size_t(x)];
+        mover_overlap[size_t(run.component)] += before == kMoverSlot;
+        trial_overlap[size_t(run.component)] += on_trial[before];
+      }
+  std::vector<char> mover(no_spawn.size(), 0);
   for (size_t c = 0; c < mover.size(); ++c) {
     const auto& info = components_.components[c];
-    mover[c] = info.value == outlier && overlap[c] > 0 &&
-               double(overlap[c]) >= params_.lifecycle.mover_min_overlap * double(info.pixels);
+    const double enough = p.mover_min_overlap * double(info.pixels);
+    if (info.value != outlier) continue;
+    mover[c] = mover_overlap[c] > 0 && double(mover_overlap[c]) >= enough;
+    no_spawn[c] = mover[c] || (trial_overlap[c] > 0 && double(trial_overlap[c]) >= enough);
   }
   for (const auto& run : components_.runs)
     if (run.component >= 0 && mover[size_t(run.component)])
       for (int x = run.x0; x < run.x1; ++x) slots[size_t(run.y) * width + size_t(x)] = kMoverSlot;
-  return mover;
+  return no_spawn;
 }
 
 // Tries to align model m (inactive, or an object that lost every pixel this frame) with the

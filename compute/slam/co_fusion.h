@@ -178,9 +178,10 @@ struct LifecycleParams {
 
 // Camera tracking loss and relocalisation. A frame whose camera tracking fails is lost: its pose is
 // not updated and nothing is fused. Every following frame is relocalised against the background
-// model until one succeeds: tracked (with all its pixels) from the last tracked pose and from the
-// poses of the keyframes that look most like it (KeyframeDatabase); the best alignment that passes
-// the thresholds below recovers the camera, and the pipeline resumes from the next frame.
+// model until one succeeds: tracked (with all its pixels) from the last tracked pose, from the pose
+// the previous frame's closest attempt reached (the camera moves on while lost) and from the poses
+// of the keyframes that look most like it (KeyframeDatabase); the best alignment that passes the
+// thresholds below recovers the camera, and the pipeline resumes from the next frame.
 struct RelocalisationParams {
   KeyframeParams keyframes;
   // Keyframes tried besides the last tracked pose.
@@ -191,9 +192,14 @@ struct RelocalisationParams {
   // of at least min_inlier_ratio_rel times that median and an RMS point-to-plane residual of at
   // most max_rms_rel times it. Stricter than tracking's own failure rules: an alignment from a
   // wrong start can converge to a wrong but self-consistent pose.
+  // The relocalisation's RMS is higher than tracking's: the prediction holds only stable surfels
+  // (the recent unconfirmed ones have aged out while lost) and the live frame is not masked.
   int recent_frames = 30;
-  double min_inlier_ratio_rel = 0.75;
+  double min_inlier_ratio_rel = 0.9;
   double max_rms_rel = 1.5;
+  // Tracking runs per start, each from where the previous one got to (from a start 30 cm away one
+  // run has not converged).
+  int tracking_passes = 3;
   // No new model spawns for this many frames after a recovery (the background's residuals must
   // settle first, as at the start: LifecycleParams::warmup_frames).
   int settle_frames = 5;
@@ -360,6 +366,10 @@ class CoFusion {
   // T_world_camera_ stays the last tracked pose meanwhile.
   KeyframeDatabase keyframes_;
   bool lost_ = false;
+  const uint8_t* live_rgb_ = nullptr;  // this frame's input, while process() runs
+  const float* live_depth_m_ = nullptr;
+  // While lost: the previous frame's relocalisation attempt that came closest (RMS m, T_world_live).
+  std::optional<std::pair<double, Eigen::Isometry3d>> closest_attempt_;
   std::vector<std::pair<double, double>> recent_tracking_;  // (inlier ratio, RMS m) of tracked frames, oldest first
   int last_recovery_frame_ = -1000000;
   int next_id_ = 1;

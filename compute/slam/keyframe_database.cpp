@@ -5,6 +5,9 @@
 #include <limits>
 #include <numbers>
 
+#include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
+
 #include "common/error.h"
 #include "common/se3.h"
 
@@ -66,16 +69,92 @@ double KeyframeDatabase::dissimilarity(const FrameEncoding& a, const FrameEncodi
   return di / double(blocks) + params_.depth_weight_per_m * dd / double(both);
 }
 
-bool KeyframeDatabase::add_if_novel(const FrameEncoding& encoding, const Eigen::Isometry3d& T_world_camera) {
+bool KeyframeDatabase::novel(const Eigen::Isometry3d& T_world_camera) const {
   for (const Keyframe& k : keyframes_) {
     const Eigen::Isometry3d d = k.T_world_camera.inverse() * T_world_camera;
     if (d.translation().norm() < params_.min_translation_m &&
         rotation_angle_rad(d) * 180.0 / std::numbers::pi < params_.min_rotation_deg)
       return false;
   }
-  if (int(keyframes_.size()) >= params_.max_keyframes) keyframes_.erase(keyframes_.begin());
-  keyframes_.push_back({encoding, T_world_camera});
   return true;
+}
+
+bool KeyframeDatabase::add_if_novel(const FrameEncoding& encoding, FrameFeatures features,
+                                    const Eigen::Isometry3d& T_world_camera) {
+  if (!novel(T_world_camera)) return false;
+  if (int(keyframes_.size()) >= params_.max_keyframes) keyframes_.erase(keyframes_.begin());
+  keyframes_.push_back({encoding, std::move(features), T_world_camera});
+  return true;
+}
+
+FrameFeatures KeyframeDatabase::features(const uint8_t* rgb, const float* depth_m, const Intrinsics& k) const {
+  cv::Mat gray(k.height, k.width, CV_8UC1);
+  for (int i = 0; i < k.width * k.height; ++i)
+    gray.data[i] = static_cast<uint8_t>((int(rgb[3 * i]) + int(rgb[3 * i + 1]) + int(rgb[3 * i + 2])) / 3);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  cv::ORB::create(params_.orb_features)->detectAndCompute(gray, cv::noArray(), keypoints, descriptors);
+  FrameFeatures f;
+  for (size_t j = 0; j < keypoints.size(); ++j) {
+    const cv::Point2f& u = keypoints[j].pt;
+    const int x = std::clamp(int(std::lround(u.x)), 0, k.width - 1), y = std::clamp(int(std::lround(u.y)), 0, k.height - 1);
+    const float z = depth_m[size_t(y) * size_t(k.width) + size_t(x)];
+    if (!(z > 0.0f) || !std::isfinite(z)) continue;
+    f.pixels.push_back(u);
+    f.points_camera.emplace_back(float((u.x - k.cx) / k.fx) * z, float((u.y - k.cy) / k.fy) * z, z);
+    f.descriptors.push_back(descriptors.row(int(j)));
+  }
+  return f;
+}
+
+std::vector<Eigen::Isometry3d> KeyframeDatabase::pnp_poses(const FrameEncoding& encoding, const FrameFeatures& live,
+                                                          const Intrinsics& k) const {
+  if (live.descriptors.empty()) return {};
+  // Which keyframes: the most similar by encoding, and the newest (the camera was there last).
+  std::vector<std::pair<double, size_t>> scored;
+  for (size_t i = 0; i < keyframes_.size(); ++i) scored.emplace_back(dissimilarity(encoding, keyframes_[i].encoding), i);
+  std::sort(scored.begin(), scored.end());
+  std::vector<size_t> chosen;
+  for (size_t i = 0; i < scored.size() && int(chosen.size()) < params_.pnp_similar_keyframes; ++i) chosen.push_back(scored[i].second);
+  for (int i = 0; i < params_.pnp_newest_keyframes && i < int(keyframes_.size()); ++i) {
+    const size_t newest = keyframes_.size() - 1 - size_t(i);
+    if (std::find(chosen.begin(), chosen.end(), newest) == chosen.end()) chosen.push_back(newest);
+  }
+  const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+  cv::BFMatcher matcher(cv::NORM_HAMMING);
+  std::vector<std::pair<int, Eigen::Isometry3d>> poses;  // (inliers, T_world_live)
+  for (size_t i : chosen) {
+    const Keyframe& kf = keyframes_[i];
+    if (kf.features.descriptors.rows < params_.min_pnp_inliers) continue;
+    std::vector<std::vector<cv::DMatch>> matches;
+    matcher.knnMatch(live.descriptors, kf.features.descriptors, matches, 2);
+    std::vector<cv::Point3f> object;
+    std::vector<cv::Point2f> image;
+    for (const auto& m : matches)
+      if (m.size() == 2 && m[0].distance < params_.match_ratio * m[1].distance) {
+        object.push_back(kf.features.points_camera[size_t(m[0].trainIdx)]);
+        image.push_back(live.pixels[size_t(m[0].queryIdx)]);
+      }
+    if (int(object.size()) < params_.min_pnp_inliers) continue;
+    cv::Mat rvec, tvec;
+    std::vector<int> inliers;
+    if (!cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, 200, float(params_.max_reprojection_px),
+                            0.99, inliers, cv::SOLVEPNP_EPNP) ||
+        int(inliers.size()) < params_.min_pnp_inliers)
+      continue;
+    cv::Matx33d R;
+    cv::Rodrigues(rvec, R);
+    Eigen::Isometry3d T_live_keyframe = Eigen::Isometry3d::Identity();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) T_live_keyframe.linear()(r, c) = R(r, c);
+      T_live_keyframe.translation()(r) = tvec.at<double>(r);
+    }
+    poses.emplace_back(int(inliers.size()), kf.T_world_camera * T_live_keyframe.inverse());
+  }
+  std::stable_sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<Eigen::Isometry3d> out;
+  for (const auto& [n, T] : poses) out.push_back(T);
+  return out;
 }
 
 std::vector<Eigen::Isometry3d> KeyframeDatabase::nearest(const FrameEncoding& encoding, int count) const {

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <vector>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "common/error.h"
 #include "slam/keyframe_database.h"
 
@@ -91,18 +94,58 @@ TEST(KeyframeDatabase, KeepsOnlyNovelPosesAndFindsTheMostSimilar) {
     const Image im = ramp(160, 120, s, 2.0f);
     enc.push_back(db.encode(im.rgb.data(), im.depth_m.data(), 160, 120));
   }
-  EXPECT_TRUE(db.add_if_novel(enc[0], translated(0.0)));
-  EXPECT_FALSE(db.add_if_novel(enc[1], translated(0.05)));  // within 10 cm of the first
-  EXPECT_TRUE(db.add_if_novel(enc[1], translated(0.5)));
-  EXPECT_TRUE(db.add_if_novel(enc[2], translated(1.0)));
+  EXPECT_TRUE(db.add_if_novel(enc[0], {}, translated(0.0)));
+  EXPECT_FALSE(db.add_if_novel(enc[1], {}, translated(0.05)));  // within 10 cm of the first
+  EXPECT_TRUE(db.add_if_novel(enc[1], {}, translated(0.5)));
+  EXPECT_TRUE(db.add_if_novel(enc[2], {}, translated(1.0)));
   EXPECT_EQ(db.size(), 3u);
   const auto nearest = db.nearest(enc[1], 2);
   ASSERT_EQ(nearest.size(), 2u);
   EXPECT_NEAR(nearest[0].translation().x(), 0.5, 1e-12);
   // The fourth drops the oldest.
-  EXPECT_TRUE(db.add_if_novel(enc[3], translated(1.5)));
+  EXPECT_TRUE(db.add_if_novel(enc[3], {}, translated(1.5)));
   EXPECT_EQ(db.size(), 3u);
   for (const auto& T : db.nearest(enc[0], 3)) EXPECT_GT(T.translation().x(), 0.25);
+}
+
+// A textured wall 2 m in front of the camera; the camera then moves 8 cm to its left (the wall's
+// image shifts right by fx * 0.08 / 2 = 21 px). The features of the moved view matched against the
+// keyframe's give that pose by PnP, whatever the keyframe's encoding similarity.
+TEST(KeyframeDatabase, FeaturesLocateAMovedCameraByPnP) {
+  const Intrinsics k{525.0, 525.0, 319.5, 239.5, 640, 480};
+  cv::Mat texture(60, 80, CV_8UC1);
+  cv::randu(texture, 0, 256);
+  cv::Mat wall;
+  cv::resize(texture, wall, cv::Size(720, 480), 0, 0, cv::INTER_CUBIC);
+  const auto view = [&](int offset_px, std::vector<uint8_t>& rgb) {
+    rgb.resize(size_t(k.width) * size_t(k.height) * 3);
+    for (int y = 0; y < k.height; ++y)
+      for (int x = 0; x < k.width; ++x)
+        for (int c = 0; c < 3; ++c) rgb[3 * (size_t(y) * size_t(k.width) + size_t(x)) + size_t(c)] = wall.at<uint8_t>(y, x + 40 - offset_px);
+  };
+  const double shift_m = 0.08, depth_m = 2.0;
+  const int shift_px = int(std::lround(k.fx * shift_m / depth_m));
+  std::vector<uint8_t> key_rgb, live_rgb;
+  view(0, key_rgb);
+  view(shift_px, live_rgb);
+  const std::vector<float> depth(size_t(k.width) * size_t(k.height), float(depth_m));
+  KeyframeDatabase db{KeyframeParams{}};
+  const slam::FrameFeatures key = db.features(key_rgb.data(), depth.data(), k);
+  ASSERT_GT(key.pixels.size(), 100u);
+  ASSERT_TRUE(db.add_if_novel(db.encode(key_rgb.data(), depth.data(), k.width, k.height), key, Eigen::Isometry3d::Identity()));
+  const auto poses = db.pnp_poses(db.encode(live_rgb.data(), depth.data(), k.width, k.height),
+                                  db.features(live_rgb.data(), depth.data(), k), k);
+  ASSERT_FALSE(poses.empty());
+  // The scene moved right in the image: the camera moved left (-x), without turning.
+  EXPECT_NEAR(poses[0].translation().x(), -double(shift_px) * depth_m / k.fx, 0.01);
+  EXPECT_NEAR(poses[0].translation().y(), 0.0, 0.01);
+  EXPECT_NEAR(poses[0].translation().z(), 0.0, 0.02);
+  EXPECT_LT(Eigen::AngleAxisd(poses[0].rotation()).angle(), 0.01);
+  // Features of an unrelated view find nothing.
+  std::vector<uint8_t> other(live_rgb.size());
+  cv::Mat noise(k.height, k.width * 3, CV_8UC1, other.data());
+  cv::randu(noise, 0, 256);
+  EXPECT_TRUE(db.pnp_poses(db.encode(other.data(), depth.data(), k.width, k.height), db.features(other.data(), depth.data(), k), k).empty());
 }
 
 TEST(KeyframeDatabase, RejectsBadParameters) {
