@@ -36,7 +36,7 @@ json treadmill_scene() {
       {"frame": 0,  "position": [0.0, -3.0, 1.0], "look_at": [0.0, 0.0, 0.9]},
       {"frame": 75, "position": [3.0, -3.0, 1.0], "look_at": [3.0, 0.0, 0.9]}]},
     "room": {"size": [12, 8, 3]},
-    "objects": [{"name": "walker", "kind": "person", "height_m": 1.75,
+    "objects": [{"name": "walker", "class": "person", "kind": "person", "height_m": 1.75,
                  "gait": {"step_hz": 1.8, "arm_swing_deg": 30, "leg_swing_deg": 22},
                  "keyframes": [{"frame": 0, "position": [0, 0, 0]}, {"frame": 75, "position": [3, 0, 0]}]}]
   })");
