@@ -174,6 +174,8 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
       !(life.mover_min_overlap > 0 && life.mover_min_overlap <= 1))
     throw Error("lifecycle: rigidity_trial_frames must be >= 0, rigidity_max_failures >= 1, "
                 "rigid_min_explained_fraction in [0, 1], mover_min_overlap in (0, 1]");
+  if (params.semantic.mode != SegmentationMode::kMotion)
+    throw Error(std::string("segmentation mode '") + to_string(params.semantic.mode) + "' is not implemented yet");
   main_stream_.set_profile_group("frame");
   preprocess_ = params.slam.effective_preprocess();
   // Object trackers differ from the background's (the outline term reads the live gradients).
@@ -448,11 +450,20 @@ void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, con
 }
 
 // ---------------------------------------------------------------------------------------------
-CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
+CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic) {
   CoFusionFrame out;
   out.frame = frame_;
   const int width = intrinsics_.width, height = intrinsics_.height;
   const size_t n = size_t(width) * height;
+  // Pixels of excluded classes (SemanticParams::exclude): mover pixels from the start, so that no
+  // model tracks with them this frame, and again after the segmentation.
+  std::vector<uint8_t> excluded;
+  if (semantic) {
+    check_semantic_frame(*semantic, n);
+    if (excluded_pixels(*semantic, params_.semantic, excluded) > 0 && !params_.motion_segmentation)
+      throw Error("excluding classes by their masks needs motion segmentation (not implemented for background-only runs)");
+    if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
+  }
   auto lap = Clock::now();
   const auto stage = [&](const char* name) {
     const auto now = Clock::now();
@@ -557,13 +568,17 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     std::vector<std::vector<float>> costs(active.size());
     for (size_t k = 0; k < active.size(); ++k) model_costs(*active[k], depth_m, costs[k]);
     std::vector<std::span<const float>> views(costs.begin(), costs.end());
-    const segmentation::SegmentationResult seg = segmenter_.segment(*superpixels, rgb, depth_m, views);
+    segmentation::SegmentationResult seg = segmenter_.segment(*superpixels, rgb, depth_m, views);
+    // Excluded pixels are no model's and no outlier region's (they spawn nothing).
+    mark_excluded(excluded, segmentation::kNoLabel, seg.labels);
     slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
+    if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
     out.segment_ms = ms_between(seg_start, Clock::now());
   } else {
     // Everything with depth belongs to the background. The GPU needs the labels only to mask
     // the next frame's tracking, which a background-only run does not do.
     for (size_t i = 0; i < n; ++i) slots_[i] = depth_m[i] > 0.0f ? 0 : kNoSlot;
+    mark_excluded(excluded, kMoverSlot, slots_);
     if (params_.motion_segmentation) upload_labels(slots_);
     active.front()->pixels = static_cast<int>(std::count(slots_.begin(), slots_.end(), uint8_t{0}));
   }

@@ -26,6 +26,7 @@
 #include "slam/dense_slam.h"
 #include "slam/keyframe_database.h"
 #include "slam/motion_kernels.h"
+#include "slam/semantic_masks.h"
 
 namespace cofusion::slam {
 
@@ -229,6 +230,8 @@ struct CoFusionParams {
   RelocalisationParams relocalisation;
   // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
   bool motion_segmentation = true;
+  // Instance masks (process()'s `semantic`): excluded classes, segmentation mode.
+  SemanticParams semantic;
 };
 
 // (frame, T_world_model) per frame, ascending frames.
@@ -301,8 +304,10 @@ class CoFusion {
   CoFusion& operator=(const CoFusion&) = delete;
 
   // Processes the next frame: `depth_m` width*height floats in metres (0/NaN = no reading), `rgb`
-  // width*height*3 bytes.
-  CoFusionFrame process(const float* depth_m, const uint8_t* rgb);
+  // width*height*3 bytes, `semantic` the frame's instance masks when there are any (made from this
+  // frame; see semantic_masks.h): pixels of excluded classes are mover pixels (no fusion, no
+  // tracking, no spawning). Masks need motion_segmentation (the label map that keeps them out).
+  CoFusionFrame process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic = nullptr);
 
   // Active and inactive models (background first, then by id).
   std::vector<ModelSnapshot> models() const;
