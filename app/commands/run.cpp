@@ -416,8 +416,8 @@ void add_run(CLI::App& app) {
       ->check(CLI::Range(0.5, 2.0));
   cmd->add_option("--seed", o->seed, "Synthetic scenes: noise seed (0 = the scene's own)");
   cmd->add_option("--segmentation", o->segmentation,
-                  "motion (default: models from motion), semantic (models from instance masks; not implemented yet) or both "
-                  "(not implemented yet)");
+                  "motion (default: models from motion; masks only exclude classes and name models), semantic (models "
+                  "from recognised instances, motion spawns none) or both");
   cmd->add_option("--semantic-source", o->semantic_source,
                   "Instance masks: masks (the input's), detector (built-in, asynchronous: a detection made from a frame "
                   "is used for the next one), none (default: masks when the input has them, else the detector when its "

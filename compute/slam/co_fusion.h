@@ -333,6 +333,8 @@ class CoFusion {
   void hold_still(const std::vector<Model*>& active, const std::string& why);
   std::vector<Model*> live_models() const;  // the active models, background first
   std::vector<char> mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const;
+  void apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken, const float* depth_m,
+                       CoFusionFrame& out, std::vector<int>& spawned_slots);
   void drop_nonrigid(const std::vector<Model*>& order, const std::vector<uint8_t>& seg_labels,
                      const std::vector<int>& labelled, const std::vector<int>& explained,
                      std::vector<uint8_t>& slots, CoFusionFrame& out);
@@ -367,6 +369,9 @@ class CoFusion {
   bool lost_ = false;
   std::vector<std::pair<double, double>> recent_tracking_;  // (inlier ratio, RMS m) of tracked frames, oldest first
   int last_recovery_frame_ = -1000000;
+  // This frame's instance masks (null without), and the instances no model covers yet.
+  const SemanticFrame* semantic_ = nullptr;
+  InstanceCandidates instance_candidates_;
   int next_id_ = 1;
   int frame_ = 0;
   Eigen::Isometry3d T_world_camera_ = Eigen::Isometry3d::Identity();

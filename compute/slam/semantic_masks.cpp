@@ -86,8 +86,10 @@ double iou(const std::vector<size_t>& pixels, const std::vector<uint8_t>& labels
   return either > 0 ? double(both) / double(either) : 0.0;
 }
 
-std::vector<int> InstanceCandidates::update(const std::vector<const MaskInstance*>& uncovered, size_t image_pixels) {
-  std::vector<int> counts(uncovered.size(), 1);
+std::vector<InstanceCandidates::Seen> InstanceCandidates::update(
+    const std::vector<const MaskInstance*>& uncovered, const std::vector<std::optional<Eigen::Vector3d>>& centroids,
+    size_t image_pixels) {
+  std::vector<Seen> counts(uncovered.size());
   const bool have_previous = previous_.size() == image_pixels;
   for (size_t k = 0; k < uncovered.size(); ++k) {
     if (!have_previous) break;
@@ -97,13 +99,15 @@ std::vector<int> InstanceCandidates::update(const std::vector<const MaskInstance
     for (size_t c = 1; c < overlap.size(); ++c)
       if (overlap[c] > (best > 0 ? overlap[best] : 0)) best = c;
     if (best > 0 && 2 * overlap[best] >= std::min(uncovered[k]->pixels.size(), previous_size_[best - 1]))
-      counts[k] = previous_count_[best - 1] + 1;
+      counts[k] = {previous_count_[best - 1] + 1, previous_centroid_[best - 1]};
   }
   previous_.assign(image_pixels, 0);
   previous_count_.clear();
   previous_size_.clear();
+  previous_centroid_.clear();
   for (size_t k = 0; k < uncovered.size() && k < 0xFFFE; ++k) {
-    previous_count_.push_back(counts[k]);
+    previous_count_.push_back(counts[k].frames);
+    previous_centroid_.push_back(k < centroids.size() ? centroids[k] : std::nullopt);
     previous_size_.push_back(uncovered[k]->pixels.size());
     for (size_t i : uncovered[k]->pixels) previous_[i] = static_cast<uint16_t>(k + 1);
   }

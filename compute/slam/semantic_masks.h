@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 namespace cofusion::slam {
 
 // Instance masks of one frame.
@@ -83,14 +85,20 @@ double iou(const std::vector<size_t>& pixels, const std::vector<uint8_t>& labels
 // (masks of moving objects shift a little; dataset ids and detector ids need not be stable).
 class InstanceCandidates {
  public:
-  // This frame's uncovered instances: how many consecutive frames each has been one (1 = new).
-  // Forgets the previous frame's candidates.
-  std::vector<int> update(const std::vector<const MaskInstance*>& uncovered, size_t image_pixels);
+  struct Seen {
+    int frames = 1;  // consecutive frames it has been a candidate, this one included
+    std::optional<Eigen::Vector3d> previous_centroid;  // the one it continues (camera frame, metres)
+  };
+  // This frame's uncovered instances with the centroids of their points (camera frame; none
+  // without). Forgets the previous frame's candidates.
+  std::vector<Seen> update(const std::vector<const MaskInstance*>& uncovered,
+                           const std::vector<std::optional<Eigen::Vector3d>>& centroids, size_t image_pixels);
 
  private:
   std::vector<uint16_t> previous_;    // per pixel: 0 or 1 + index into previous_count_
   std::vector<int> previous_count_;
   std::vector<size_t> previous_size_;
+  std::vector<std::optional<Eigen::Vector3d>> previous_centroid_;
 };
 
 // A model's recognitions: votes per class.
