@@ -631,6 +631,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
   }
   ++frame_;
+  semantic_ = nullptr;  // the caller's, valid during process() only
   return out;
 }
 
