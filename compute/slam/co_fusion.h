@@ -16,6 +16,9 @@
 //      co-moving models (never two that once moved apart), retire models whose label has been
 //      absent for a while;
 //   5. every active model fuses the pixels labelled with it (again one stream per model).
+// With instance masks (process()'s `semantic`, semantic_masks.h) pixels of excluded classes are
+// kept out of steps 2-5 (mover pixels), and in step 4 instances of modelled classes join the
+// models they overlap and, in the semantic/both modes, spawn models of their own.
 #include <memory>
 #include <optional>
 #include <string>
