@@ -21,7 +21,18 @@ struct PipelineConfig {
   slam::RestParams rest;
   bool motion_segmentation = true;
 
-  slam::CoFusionParams cofusion() const { return {slam, segmentation, costs, lifecycle, rest, motion_segmentation}; }
+  // By name: an aggregate initialiser in member order silently put motion_segmentation into
+  // relocalisation.keyframes.cols once CoFusionParams grew a member before it.
+  slam::CoFusionParams cofusion() const {
+    slam::CoFusionParams p;
+    p.slam = slam;
+    p.segmentation = segmentation;
+    p.costs = costs;
+    p.lifecycle = lifecycle;
+    p.rest = rest;
+    p.motion_segmentation = motion_segmentation;
+    return p;
+  }
 };
 
 PipelineConfig load_config(const std::filesystem::path& path);

@@ -10,6 +10,7 @@
 #include "commands/commands.h"
 #include "commands/config.h"
 #include "commands/gpu_options.h"
+#include "commands/semantic_source.h"
 #include "commands/sources.h"
 #include "commands/stage_timer.h"
 #include "io/atomic_file.h"
@@ -35,6 +36,11 @@ struct RunOptions {
   std::optional<double> depth_correction;
   unsigned seed = 0;
   std::string screenshot;
+  // Instance masks (slam::SemanticParams).
+  std::string segmentation = "motion";
+  std::string semantic_source;  // masks | detector | none; empty = masks when the input has them, else detector
+  std::string exclude = "person";
+  std::string classes;
   GpuCliOptions gpu;
 };
 
@@ -97,9 +103,40 @@ void write_segmentation_classes(const fs::path& path, const std::vector<slam::Mo
   write_instance_classes(path, classes);
 }
 
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    if (comma > start) out.push_back(text.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return out;
+}
+
+// build/models beside build/app/cofusion: the folder .ci/fetch-models.sh fills by default.
+fs::path default_models_dir() {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  return semantic::models_dir(ec ? fs::path("build/models") : exe.parent_path().parent_path() / "models");
+}
+
 void run(const RunOptions& o) {
   if (handle_list_devices(o.gpu)) return;
   const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
+  slam::CoFusionParams params = config.cofusion();
+  {
+    const auto mode = slam::parse_segmentation_mode(o.segmentation);
+    if (!mode) throw Error("--segmentation must be motion, semantic or both, not '" + o.segmentation + "'");
+    params.semantic.mode = *mode;
+    params.semantic.exclude = split_list(o.exclude);
+    params.semantic.classes = split_list(o.classes);
+    for (const auto& c : params.semantic.exclude) require_class_name(c, "--exclude");
+    for (const auto& c : params.semantic.classes) require_class_name(c, "--classes");
+  }
+  if (!o.semantic_source.empty() && o.semantic_source != "masks" && o.semantic_source != "detector" &&
+      o.semantic_source != "none")
+    throw Error("--semantic-source must be masks, detector or none, not '" + o.semantic_source + "'");
   SourceOptions source_options;
   source_options.intrinsics = o.intrinsics;
   source_options.depth_correction = o.depth_correction;
@@ -132,7 +169,11 @@ void run(const RunOptions& o) {
   if (!o.headless || !o.screenshot.empty()) view_renderer = std::make_unique<renderer::ViewRenderer>(ctx);
   if (!o.headless) viewer = std::make_unique<renderer::Viewer>(ctx);
 
-  slam::CoFusion slam(ctx, intrinsics, config.cofusion());
+  slam::CoFusion slam(ctx, intrinsics, params);
+  // Where the instance masks come from, decided at the first frame (whether the input has masks).
+  std::string semantic_source = o.semantic_source;
+  std::unique_ptr<AsyncDetector> detector;
+  std::optional<slam::SemanticFrame> frame_masks;
   StageTimes times;
   Trajectory camera;
   std::vector<double> timestamps;  // per processed frame, for the model trajectories
@@ -210,7 +251,38 @@ void run(const RunOptions& o) {
     check_frame(*frame, intrinsics, frames == 0);
     const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
     const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
-    slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data);
+    if (semantic_source.empty()) {
+      if (!frame->mask.empty()) {
+        semantic_source = "masks";
+      } else if (std::error_code ec; fs::is_regular_file(default_models_dir() / "centernet.pb", ec)) {
+        semantic_source = "detector";
+      } else {
+        semantic_source = "none";
+        std::printf("no instance masks: the input has none and the detector's models are not in %s (run "
+                    ".ci/fetch-models.sh or set COFUSION_MODELS); no class is excluded\n",
+                    default_models_dir().c_str());
+      }
+      if (semantic_source != "none" && !config.motion_segmentation) {
+        semantic_source = "none";
+        std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
+      }
+      if (semantic_source != "none") std::printf("instance masks: %s\n", semantic_source.c_str());
+      if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics);
+    }
+    if (semantic_source == "masks" && frame->mask.empty())
+      throw Error("frame " + std::to_string(frame->index) + " has no instance mask (--semantic-source masks)");
+    if (semantic_source == "detector" && !detector) detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics);
+    const slam::SemanticFrame* semantic = nullptr;
+    if (semantic_source == "masks") {
+      frame_masks = semantic_frame_from_masks(*frame);
+      semantic = frame_masks ? &*frame_masks : nullptr;
+    } else if (detector) {
+      // The latest finished detection if it was made from the previous frame, then a detection of
+      // this frame starts (when none is running); the pipeline does not wait for it.
+      semantic = detector->for_frame(frame->index);
+      detector->submit(frame->index, rgb, depth);
+    }
+    slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data, semantic);
     for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
     if (r.frame > 0 && config.motion_segmentation) {
       times.add("superpixels (CPU)", r.superpixels_ms);
@@ -314,6 +386,14 @@ void run(const RunOptions& o) {
                                  {"class", m.class_name}, {"class_confidence", m.class_confidence}});
   }
   summary["events"] = events;
+  summary["semantic"] = {{"segmentation", slam::to_string(params.semantic.mode)},
+                         {"source", semantic_source.empty() ? "none" : semantic_source},
+                         {"exclude", params.semantic.exclude},
+                         {"classes", params.semantic.classes}};
+  if (detector)
+    summary["semantic"]["detector"] = {{"detections", detector->detections_started()},
+                                       {"frames_with_masks", detector->results_used()},
+                                       {"mean_ms", detector->mean_detection_ms()}};
   write_text_atomically(out_dir / "summary.json", summary.dump(2) + "\n");
   std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures; wrote %s\n", frames,
               seconds, frames / seconds, snapshots.size(), total_surfels, failed_frames.size(), out_dir.c_str());
@@ -337,6 +417,17 @@ void add_run(CLI::App& app) {
                   "Recorded depth / DS = metric depth (default: TUM folders of the fr1/fr2 cameras 1.035/1.031, as the TUM benchmark lists; else 1)")
       ->check(CLI::Range(0.5, 2.0));
   cmd->add_option("--seed", o->seed, "Synthetic scenes: noise seed (0 = the scene's own)");
+  cmd->add_option("--segmentation", o->segmentation,
+                  "motion (default: models from motion; masks only exclude classes and name models), semantic (models "
+                  "from recognised instances, motion spawns none) or both");
+  cmd->add_option("--semantic-source", o->semantic_source,
+                  "Instance masks: masks (the input's), detector (built-in, asynchronous: a detection made from a frame "
+                  "is used for the next one), none (default: masks when the input has them, else the detector when its "
+                  "models are there)");
+  cmd->add_option("--exclude", o->exclude,
+                  "Comma-separated classes whose pixels are never modelled, fused or tracked with (default person; "
+                  "\"\" = none)");
+  cmd->add_option("--classes", o->classes, "Comma-separated classes that become models in semantic/both modes (default all)");
   o->gpu.add_to(*cmd);
   cmd->callback([o] { run(*o); });
 }

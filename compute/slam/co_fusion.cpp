@@ -142,6 +142,7 @@ struct CoFusion::Model {
   bool on_probation = true;  // objects: not yet shown to move relative to the background
   PoseHistory trajectory;  // (frame, T_world_model) while active
   PoseHistory seen_trajectory;  // of those, the frames it was tracked in
+  ClassVotes class_votes;  // its recognitions by instance masks (semantic_masks.h)
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -175,6 +176,10 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
       !(life.mover_min_overlap > 0 && life.mover_min_overlap <= 1))
     throw Error("lifecycle: rigidity_trial_frames must be >= 0, rigidity_max_failures >= 1, "
                 "rigid_min_explained_fraction in [0, 1], mover_min_overlap in (0, 1]");
+  const SemanticParams& sem = params.semantic;
+  if (sem.confirm_frames < 1 || !(sem.min_instance_area_fraction >= 0 && sem.min_instance_area_fraction < 1) ||
+      !(sem.join_min_iou > 0 && sem.join_min_iou <= 1))
+    throw Error("semantic: confirm_frames must be >= 1, min_instance_area_fraction in [0, 1), join_min_iou in (0, 1]");
   main_stream_.set_profile_group("frame");
   preprocess_ = params.slam.effective_preprocess();
   // Object trackers differ from the background's (the outline term reads the live gradients).
@@ -458,11 +463,21 @@ void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, con
 }
 
 // ---------------------------------------------------------------------------------------------
-CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
+CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic) {
   CoFusionFrame out;
   out.frame = frame_;
   const int width = intrinsics_.width, height = intrinsics_.height;
   const size_t n = size_t(width) * height;
+  // Pixels of excluded classes (SemanticParams::exclude): mover pixels from the start, so that no
+  // model tracks with them this frame, and again after the segmentation.
+  std::vector<uint8_t> excluded;
+  semantic_ = semantic;
+  if (semantic) {
+    check_semantic_frame(*semantic, n);
+    if (excluded_pixels(*semantic, params_.semantic, excluded) > 0 && !params_.motion_segmentation)
+      throw Error("excluding classes by their masks needs motion segmentation (not implemented for background-only runs)");
+    if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
+  }
   auto lap = Clock::now();
   const auto stage = [&](const char* name) {
     const auto now = Clock::now();
@@ -568,13 +583,17 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     std::vector<std::vector<float>> costs(active.size());
     for (size_t k = 0; k < active.size(); ++k) model_costs(*active[k], depth_m, costs[k]);
     std::vector<std::span<const float>> views(costs.begin(), costs.end());
-    const segmentation::SegmentationResult seg = segmenter_.segment(*superpixels, rgb, depth_m, views);
+    segmentation::SegmentationResult seg = segmenter_.segment(*superpixels, rgb, depth_m, views);
+    // Excluded pixels are no model's and no outlier region's (they spawn nothing).
+    mark_excluded(excluded, segmentation::kNoLabel, seg.labels);
     slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
+    if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
     out.segment_ms = ms_between(seg_start, Clock::now());
   } else {
     // Everything with depth belongs to the background. The GPU needs the labels only to mask
     // the next frame's tracking, which a background-only run does not do.
     for (size_t i = 0; i < n; ++i) slots_[i] = depth_m[i] > 0.0f ? 0 : kNoSlot;
+    mark_excluded(excluded, kMoverSlot, slots_);
     if (params_.motion_segmentation) upload_labels(slots_);
     active.front()->pixels = static_cast<int>(std::count(slots_.begin(), slots_.end(), uint8_t{0}));
   }
@@ -624,6 +643,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb) {
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
   }
   ++frame_;
+  semantic_ = nullptr;  // the caller's, valid during process() only
   return out;
 }
 
@@ -764,6 +784,8 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
     std::optional<Eigen::Vector3d> centroid, previous_centroid;
   };
   std::vector<Spawn> spawns;
+  // Semantic mode: models come from instance masks only.
+  if (params_.semantic.mode == SegmentationMode::kSemantic) regions.clear();
   for (size_t r = 0; r < regions.size(); ++r) {
     const std::vector<size_t>& pixels = regions[r];
     const std::optional<Eigen::Vector3d> centroid = centroid_of(pixels);
@@ -802,6 +824,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       ++slot_pixels[size_t(sp.slot)];
     }
   }
+  if (semantic_) apply_instances(slots, slot_pixels, taken, depth_m, out, spawned_slots);
   upload_labels(slots);
 
   for (const Spawn& sp : spawns) {
@@ -870,6 +893,95 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   // Deleted models leave the list.
   std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == kRemovedSlot; });
   return slots;
+}
+
+// Instance masks (SemanticParams): an instance of a modelled class votes for the object model whose
+// footprint (its labelled pixels in the previous frame or in this segmentation) it overlaps with
+// IoU >= join_min_iou; in semantic/both modes its pixels then join that model. In those modes an
+// instance no model covers for confirm_frames consecutive frames spawns a model (no probation: it
+// need not move), its surfels removed from the older models as a motion spawn's are.
+void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken,
+                               const float* depth_m, CoFusionFrame& out, std::vector<int>& spawned_slots) {
+  const SemanticParams& sp = params_.semantic;
+  const size_t n = slots.size();
+  const bool modelling = sp.mode != SegmentationMode::kMotion;
+  const std::vector<MaskInstance> instances =
+      modelled_instances(*semantic_, sp, depth_m, size_t(sp.min_instance_area_fraction * double(n)));
+  std::vector<int> previous_pixels(kSlots, 0);
+  if (slots_.size() == n)
+    for (uint8_t s : slots_)
+      if (s < kSlots) ++previous_pixels[s];
+  const uint32_t pending = taken;  // slots of this frame's motion spawns
+  std::vector<const MaskInstance*> uncovered;
+  for (const MaskInstance& inst : instances) {
+    Model* best = nullptr;
+    double best_iou = 0;
+    for (auto& m : models_) {
+      if (m->id == 0 || m->state != ModelState::kActive || m->slot < 0) continue;
+      const auto slot = static_cast<uint8_t>(m->slot);
+      double v = iou(inst.pixels, slots, slot, size_t(slot_pixels[slot]));
+      if (slots_.size() == n) v = std::max(v, iou(inst.pixels, slots_, slot, size_t(previous_pixels[slot])));
+      if (v > best_iou) best_iou = v, best = m.get();
+    }
+    // A region that spawns a model from motion this frame (both mode) covers it too.
+    bool spawning = false;
+    for (int s = 0; s < kSlots && !spawning; ++s)
+      spawning = (pending & (1u << s)) && iou(inst.pixels, slots, uint8_t(s), size_t(slot_pixels[size_t(s)])) >= sp.join_min_iou;
+    if (spawning) continue;
+    if (best && best_iou >= sp.join_min_iou) {
+      best->class_votes.add(inst.class_name);
+      if (modelling)
+        for (size_t i : inst.pixels) {
+          if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
+          slots[i] = static_cast<uint8_t>(best->slot);
+          ++slot_pixels[size_t(best->slot)];
+        }
+    } else {
+      uncovered.push_back(&inst);
+    }
+  }
+  if (!modelling) return;
+  // Centroids of their points (camera frame): a new model's origin, and with the previous frame's the
+  // first tracking's guess (as for a motion spawn: objects carried in fast move out of their mask).
+  const int width = intrinsics_.width;
+  std::vector<std::optional<Eigen::Vector3d>> centroids;
+  for (const MaskInstance* inst : uncovered) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (size_t i : inst->pixels) {
+      const double d = depth_m[i], x = double(i % size_t(width)), y = double(i / size_t(width));
+      sum += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
+    }
+    centroids.push_back(sum / double(inst->pixels.size()));  // instances have pixels with depth
+  }
+  const std::vector<InstanceCandidates::Seen> seen = instance_candidates_.update(uncovered, centroids, n);
+  for (size_t k = 0; k < uncovered.size(); ++k) {
+    if (seen[k].frames < sp.confirm_frames || int(live_models().size()) >= params_.lifecycle.max_active_models) continue;
+    const int slot = free_slot(taken);
+    if (slot < 0) break;
+    taken |= 1u << slot;
+    for (size_t i : uncovered[k]->pixels) {
+      if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
+      slots[i] = static_cast<uint8_t>(slot);
+      ++slot_pixels[size_t(slot)];
+    }
+    Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
+    T_camera_model.translation() = *centroids[k];
+    Model& m = create_model(slot, T_world_camera_ * T_camera_model);
+    m.on_probation = false;
+    if (seen[k].previous_centroid) {
+      const Eigen::Vector3d step = *centroids[k] - *seen[k].previous_centroid;
+      if (step.norm() <= params_.lifecycle.spawn_max_velocity_guess_m)
+        m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
+    }
+    m.pixels = int(uncovered[k]->pixels.size());
+    m.class_votes.add(uncovered[k]->class_name);
+    spawned_slots.push_back(slot);
+    char share[32];
+    std::snprintf(share, sizeof share, "%.1f%%", 100.0 * double(uncovered[k]->pixels.size()) / double(n));
+    out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " from a " +
+                         uncovered[k]->class_name + " instance seen in " + std::to_string(seen[k].frames) + " frames (" + share +
+                         " of the image)");
+  }
 }
 
 // Non-rigid movers (LifecycleParams::rigidity_trial_frames): a young object model whose motion
@@ -985,6 +1097,7 @@ void CoFusion::merge_into(Model& keep, Model& gone, CoFusionFrame& out, const st
   std::vector<Surfel> all = keep.surfels.download(keep.stream);
   all.insert(all.end(), moved.begin(), moved.end());
   keep.surfels.upload(keep.stream, all);
+  keep.class_votes.merge(gone.class_votes);
   out.events.push_back("frame " + std::to_string(frame_) + ": merged model " + std::to_string(gone.id) + " into " +
                        std::to_string(keep.id) + " (" + why + ")");
   gone.state = ModelState::kInactive;
@@ -1014,6 +1127,10 @@ std::vector<ModelSnapshot> CoFusion::models() const {
     s.first_frame = m->first_frame;
     s.last_frame = m->last_frame;
     s.class_name = m->id == 0 ? "background" : "object";
+    if (const auto best = m->class_votes.best(); best && m->id != 0) {
+      s.class_name = best->first;
+      s.class_confidence = best->second;
+    }
     s.trajectory = m->seen_trajectory;
     out.push_back(std::move(s));
   }

@@ -16,6 +16,9 @@
 //      co-moving models (never two that once moved apart), retire models whose label has been
 //      absent for a while;
 //   5. every active model fuses the pixels labelled with it (again one stream per model).
+// With instance masks (process()'s `semantic`, semantic_masks.h) pixels of excluded classes are
+// kept out of steps 2-5 (mover pixels), and in step 4 instances of modelled classes join the
+// models they overlap and, in the semantic/both modes, spawn models of their own.
 #include <memory>
 #include <optional>
 #include <string>
@@ -26,6 +29,7 @@
 #include "slam/dense_slam.h"
 #include "slam/keyframe_database.h"
 #include "slam/motion_kernels.h"
+#include "slam/semantic_masks.h"
 
 namespace cofusion::slam {
 
@@ -235,6 +239,8 @@ struct CoFusionParams {
   RelocalisationParams relocalisation;
   // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
   bool motion_segmentation = true;
+  // Instance masks (process()'s `semantic`): excluded classes, segmentation mode.
+  SemanticParams semantic;
 };
 
 // (frame, T_world_model) per frame, ascending frames.
@@ -307,8 +313,10 @@ class CoFusion {
   CoFusion& operator=(const CoFusion&) = delete;
 
   // Processes the next frame: `depth_m` width*height floats in metres (0/NaN = no reading), `rgb`
-  // width*height*3 bytes.
-  CoFusionFrame process(const float* depth_m, const uint8_t* rgb);
+  // width*height*3 bytes, `semantic` the frame's instance masks when there are any (made from this
+  // frame; see semantic_masks.h): pixels of excluded classes are mover pixels (no fusion, no
+  // tracking, no spawning). Masks need motion_segmentation (the label map that keeps them out).
+  CoFusionFrame process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic = nullptr);
 
   // Active and inactive models (background first, then by id).
   std::vector<ModelSnapshot> models() const;
@@ -334,6 +342,8 @@ class CoFusion {
   void hold_still(const std::vector<Model*>& active, const std::string& why);
   std::vector<Model*> live_models() const;  // the active models, background first
   std::vector<char> mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const;
+  void apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken, const float* depth_m,
+                       CoFusionFrame& out, std::vector<int>& spawned_slots);
   void drop_nonrigid(const std::vector<Model*>& order, const std::vector<uint8_t>& seg_labels,
                      const std::vector<int>& labelled, const std::vector<int>& explained,
                      std::vector<uint8_t>& slots, CoFusionFrame& out);
@@ -372,6 +382,9 @@ class CoFusion {
   std::optional<std::pair<double, Eigen::Isometry3d>> closest_attempt_;
   std::vector<std::pair<double, double>> recent_tracking_;  // (inlier ratio, RMS m) of tracked frames, oldest first
   int last_recovery_frame_ = -1000000;
+  // This frame's instance masks (null without), and the instances no model covers yet.
+  const SemanticFrame* semantic_ = nullptr;
+  InstanceCandidates instance_candidates_;
   int next_id_ = 1;
   int frame_ = 0;
   Eigen::Isometry3d T_world_camera_ = Eigen::Isometry3d::Identity();

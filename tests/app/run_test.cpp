@@ -99,6 +99,38 @@ TEST(RunCommand, SaveSegmentationWritesTheModelsClasses) {
   EXPECT_NE(bytes.find("\"model-0-background\""), std::string::npos);
 }
 
+// Semantic segmentation with the scene's own masks: table_placement's box, carried in, becomes a
+// model of class box (spawned at frame 24 of it); summary.json and classes.txt say so.
+TEST(RunCommand, SemanticSegmentationNamesTheCarriedInBox) {
+  const fs::path out = fresh_temp_dir();
+  const Result r = run_cofusion("run --headless --input synthetic:table_placement --segmentation semantic --classes box,can "
+                                "--save-segmentation --max-frames 30 --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_EQ(summary["semantic"]["segmentation"], "semantic");
+  EXPECT_EQ(summary["semantic"]["source"], "masks");
+  ASSERT_EQ(summary["models"].size(), 2u) << summary["models"].dump();
+  EXPECT_EQ(summary["models"][1]["class"], "box");
+  EXPECT_GT(summary["models"][1]["class_confidence"].get<double>(), 0.5);
+  expect_classes_of_summary_models(out);
+}
+
+TEST(RunCommand, BadSemanticOptionsFail) {
+  const fs::path out = fresh_temp_dir();
+  for (const char* args : {"--segmentation colour", "--semantic-source camera", "--exclude 'two words'"}) {
+    const Result r = run_cofusion(std::string("run --headless --input synthetic:static_room --max-frames 1 ") + args +
+                                  " --output " + out.string());
+    EXPECT_NE(r.exit_code, 0) << args;
+    EXPECT_THAT(r.output, HasSubstr(std::string(args).substr(2, std::string(args).find(' ') - 2))) << r.output;
+  }
+  // The detector needs its models; asked for explicitly, a missing one is an error naming the file.
+  const Result r = run_shell("COFUSION_MODELS=" + (out / "none").string() + " " + cofusion_exe().string() +
+                             " run --headless --input synthetic:static_room --max-frames 1 --semantic-source detector --output " +
+                             out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("centernet.pb")) << r.output;
+}
+
 TEST(GenerateCommand, WritesEachObjectsClassBesideTheMasks) {
   const fs::path out = fresh_temp_dir() / "two";
   const Result g = run_cofusion("generate two_objects --no-noise --max-frames 1 --output " + out.string());

@@ -1,0 +1,68 @@
+#include "commands/semantic_source.h"
+
+#include <chrono>
+#include <cstdio>
+
+#include "common/error.h"
+
+namespace cofusion::commands {
+
+std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame) {
+  if (frame.mask.empty()) return std::nullopt;
+  if (frame.mask.type() != CV_16UC1 || frame.mask.cols != frame.depth_m.cols || frame.mask.rows != frame.depth_m.rows)
+    throw Error("frame " + std::to_string(frame.index) + ": its mask is not a 16-bit image of the depth's size");
+  slam::SemanticFrame s;
+  const cv::Mat mask = frame.mask.isContinuous() ? frame.mask : frame.mask.clone();
+  s.ids.assign(mask.ptr<uint16_t>(), mask.ptr<uint16_t>() + mask.total());
+  if (frame.mask_classes) s.classes = frame.mask_classes->name_by_id;
+  return s;
+}
+
+AsyncDetector::AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, int max_age_frames)
+    : detector_(models / "centernet.pb"),
+      segmenter_(models / "selfie.pb"),
+      intrinsics_(intrinsics),
+      max_age_frames_(max_age_frames) {}
+
+AsyncDetector::~AsyncDetector() { jobs_.wait(); }
+
+bool AsyncDetector::submit(int frame_index, const cv::Mat& rgb, const cv::Mat& depth_m) {
+  if (running_.load(std::memory_order_acquire)) return false;
+  jobs_.wait();  // the finished task's group (returns at once)
+  running_.store(true, std::memory_order_release);
+  ++started_;
+  jobs_.run([this, frame_index, rgb = rgb.clone(), depth = depth_m.clone()] {
+    const auto start = std::chrono::steady_clock::now();
+    slam::SemanticFrame s;
+    try {
+      const auto detections = detector_.detect(rgb);
+      const cv::Mat person = segmenter_.segment(rgb);
+      const semantic::InstanceMasks masks = semantic::instance_masks(detections, depth, intrinsics_, {}, person);
+      s.ids.assign(masks.ids.ptr<uint16_t>(), masks.ids.ptr<uint16_t>() + masks.ids.total());
+      for (const auto& inst : masks.instances) s.classes[inst.id] = inst.class_name;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "frame %d: detection failed: %s\n", frame_index, e.what());
+      s = {};
+    }
+    total_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    ++finished_;
+    if (!s.ids.empty()) {
+      result_ = std::move(s);
+      result_frame_ = frame_index;
+    }
+    running_.store(false, std::memory_order_release);
+  });
+  return true;
+}
+
+const slam::SemanticFrame* AsyncDetector::for_frame(int frame_index) {
+  if (!running_.load(std::memory_order_acquire) && result_frame_ > current_frame_) {
+    current_ = result_;
+    current_frame_ = result_frame_;
+  }
+  if (current_frame_ < 0 || frame_index < current_frame_ || frame_index - current_frame_ > max_age_frames_) return nullptr;
+  ++used_;
+  return &current_;
+}
+
+}  // namespace cofusion::commands

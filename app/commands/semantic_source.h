@@ -1,0 +1,64 @@
+#pragma once
+// Instance masks for `cofusion run` (slam::SemanticFrame): from the input's own masks
+// (Frame::mask + Frame::mask_classes), or from the built-in detector (compute/semantic: CenterNet
+// boxes, the person segmenter, instance_masks()) run asynchronously on the CPU job system.
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include <tbb/task_group.h>
+
+#include "io/frame.h"
+#include "semantic/detector.h"
+#include "semantic/instance_masks.h"
+#include "slam/semantic_masks.h"
+
+namespace cofusion::commands {
+
+// A frame's own masks as the pipeline takes them; nullopt when it has none.
+std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame);
+
+// The detector on a TBB task, one frame at a time. The pipeline never waits for it: submit()
+// starts a detection on a frame when none is running (else the frame is skipped), and
+// for_frame() hands out the latest finished result only for a frame at most max_age_frames after
+// the one it was made from. A result is not carried further (moving people would be excluded
+// where they were, not where they are): warping masks by the models' motion is not done. With
+// max_age_frames = 1 a result made from frame k is used for frame k + 1 when it finished before
+// that frame is processed (it cannot be used for frame k itself without waiting).
+class AsyncDetector {
+ public:
+  // models: folder with centernet.pb and selfie.pb. Throws cofusion::Error naming a missing file.
+  AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, int max_age_frames = 1);
+  ~AsyncDetector();  // waits for a running detection
+  AsyncDetector(const AsyncDetector&) = delete;
+  AsyncDetector& operator=(const AsyncDetector&) = delete;
+
+  // Starts a detection on this frame (its pixels are copied) unless one is running. Returns
+  // whether it started.
+  bool submit(int frame_index, const cv::Mat& rgb, const cv::Mat& depth_m);
+  // The masks for frame `frame_index` (see the class comment), or null. Valid until the next call.
+  const slam::SemanticFrame* for_frame(int frame_index);
+
+  int detections_started() const { return started_; }
+  int results_used() const { return used_; }
+  double mean_detection_ms() const { return finished_ > 0 ? total_ms_ / finished_ : 0.0; }
+
+ private:
+  semantic::Detector detector_;
+  semantic::PersonSegmenter segmenter_;
+  Intrinsics intrinsics_;
+  int max_age_frames_;
+  tbb::task_group jobs_;
+  std::atomic<bool> running_{false};
+  // Written by the task before running_ is cleared, read by the caller after it saw it cleared.
+  int result_frame_ = -1;
+  slam::SemanticFrame result_;
+  double total_ms_ = 0;
+  int finished_ = 0, started_ = 0, used_ = 0;
+  // The result handed out (a copy: the task may overwrite result_ meanwhile).
+  slam::SemanticFrame current_;
+  int current_frame_ = -1;
+};
+
+}  // namespace cofusion::commands

@@ -1,0 +1,128 @@
+#include "slam/semantic_masks.h"
+
+#include <algorithm>
+
+#include "common/error.h"
+
+namespace cofusion::slam {
+
+const char* to_string(SegmentationMode mode) {
+  switch (mode) {
+    case SegmentationMode::kMotion: return "motion";
+    case SegmentationMode::kSemantic: return "semantic";
+    case SegmentationMode::kBoth: return "both";
+  }
+  return "?";
+}
+
+std::optional<SegmentationMode> parse_segmentation_mode(const std::string& text) {
+  for (const SegmentationMode m : {SegmentationMode::kMotion, SegmentationMode::kSemantic, SegmentationMode::kBoth})
+    if (text == to_string(m)) return m;
+  return std::nullopt;
+}
+
+void check_semantic_frame(const SemanticFrame& frame, size_t pixels) {
+  if (frame.ids.size() != pixels)
+    throw Error("semantic masks have " + std::to_string(frame.ids.size()) + " pixels, the frame " +
+                std::to_string(pixels));
+}
+
+bool is_excluded_class(const SemanticParams& params, const std::string& class_name) {
+  return std::find(params.exclude.begin(), params.exclude.end(), class_name) != params.exclude.end();
+}
+
+bool is_modelled_class(const SemanticParams& params, const std::string& class_name) {
+  if (is_excluded_class(params, class_name)) return false;
+  return params.classes.empty() || std::find(params.classes.begin(), params.classes.end(), class_name) != params.classes.end();
+}
+
+size_t excluded_pixels(const SemanticFrame& frame, const SemanticParams& params, std::vector<uint8_t>& excluded) {
+  excluded.clear();
+  std::vector<uint16_t> excluded_ids;
+  for (const auto& [id, name] : frame.classes)
+    if (id != 0 && is_excluded_class(params, name)) excluded_ids.push_back(id);
+  if (excluded_ids.empty()) return 0;
+  // Per id lookup (ids are 16-bit): a table of 64 Ki flags.
+  std::vector<uint8_t> is_excluded(0x10000, 0);
+  for (uint16_t id : excluded_ids) is_excluded[id] = 1;
+  excluded.assign(frame.ids.size(), 0);
+  size_t count = 0;
+  for (size_t i = 0; i < frame.ids.size(); ++i) count += excluded[i] = is_excluded[frame.ids[i]];
+  if (count == 0) excluded.clear();
+  return count;
+}
+
+bool mark_excluded(const std::vector<uint8_t>& excluded, uint8_t value, std::vector<uint8_t>& labels) {
+  if (excluded.empty()) return false;
+  if (excluded.size() != labels.size()) throw Error("mark_excluded: mask and labels differ in size");
+  bool any = false;
+  for (size_t i = 0; i < labels.size(); ++i)
+    if (excluded[i]) labels[i] = value, any = true;
+  return any;
+}
+
+std::vector<MaskInstance> modelled_instances(const SemanticFrame& frame, const SemanticParams& params,
+                                             const float* depth_m, size_t min_pixels) {
+  std::map<uint16_t, size_t> index;  // id -> position in out
+  std::vector<MaskInstance> out;
+  for (const auto& [id, name] : frame.classes)
+    if (id != 0 && is_modelled_class(params, name)) {
+      index[id] = out.size();
+      out.push_back({id, name, {}});
+    }
+  if (out.empty()) return out;
+  std::vector<int32_t> slot(0x10000, -1);
+  for (const auto& [id, k] : index) slot[id] = int32_t(k);
+  for (size_t i = 0; i < frame.ids.size(); ++i)
+    if (const int32_t k = slot[frame.ids[i]]; k >= 0 && depth_m[i] > 0.0f) out[size_t(k)].pixels.push_back(i);
+  std::erase_if(out, [&](const MaskInstance& m) { return m.pixels.size() < std::max<size_t>(min_pixels, 1); });
+  return out;
+}
+
+double iou(const std::vector<size_t>& pixels, const std::vector<uint8_t>& labels, uint8_t label, size_t label_pixels) {
+  size_t both = 0;
+  for (size_t i : pixels) both += labels[i] == label;
+  const size_t either = pixels.size() + label_pixels - both;
+  return either > 0 ? double(both) / double(either) : 0.0;
+}
+
+std::vector<InstanceCandidates::Seen> InstanceCandidates::update(
+    const std::vector<const MaskInstance*>& uncovered, const std::vector<std::optional<Eigen::Vector3d>>& centroids,
+    size_t image_pixels) {
+  std::vector<Seen> counts(uncovered.size());
+  const bool have_previous = previous_.size() == image_pixels;
+  for (size_t k = 0; k < uncovered.size(); ++k) {
+    if (!have_previous) break;
+    std::vector<size_t> overlap(previous_count_.size() + 1, 0);
+    for (size_t i : uncovered[k]->pixels) ++overlap[previous_[i]];
+    size_t best = 0;
+    for (size_t c = 1; c < overlap.size(); ++c)
+      if (overlap[c] > (best > 0 ? overlap[best] : 0)) best = c;
+    if (best > 0 && 2 * overlap[best] >= std::min(uncovered[k]->pixels.size(), previous_size_[best - 1]))
+      counts[k] = {previous_count_[best - 1] + 1, previous_centroid_[best - 1]};
+  }
+  previous_.assign(image_pixels, 0);
+  previous_count_.clear();
+  previous_size_.clear();
+  previous_centroid_.clear();
+  for (size_t k = 0; k < uncovered.size() && k < 0xFFFE; ++k) {
+    previous_count_.push_back(counts[k].frames);
+    previous_centroid_.push_back(k < centroids.size() ? centroids[k] : std::nullopt);
+    previous_size_.push_back(uncovered[k]->pixels.size());
+    for (size_t i : uncovered[k]->pixels) previous_[i] = static_cast<uint16_t>(k + 1);
+  }
+  return counts;
+}
+
+std::optional<std::pair<std::string, double>> ClassVotes::best() const {
+  int total = 0;
+  const std::pair<const std::string, int>* top = nullptr;
+  for (const auto& entry : votes_) {
+    total += entry.second;
+    if (!top || entry.second > top->second) top = &entry;
+  }
+  if (!top || total <= 0) return std::nullopt;
+  return std::pair{top->first, double(top->second) / double(total)};
+}
+
+}  // namespace cofusion::slam
