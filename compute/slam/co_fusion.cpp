@@ -1,7 +1,6 @@
 #include "slam/co_fusion.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -279,10 +278,10 @@ void CoFusion::hold_still(const std::vector<Model*>& active, const std::string& 
 // background's motion takes the camera to the recovered pose and its residuals are computed there
 // (from a prediction at that pose), so this frame is segmented and fused; on failure the frame is
 // lost like the one before.
-bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding) {
+bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding, const FrameFeatures& features) {
   const RelocalisationParams& p = params_.relocalisation;
   std::vector<Eigen::Isometry3d> starts{T_world_camera_};  // T_world_camera
-  for (const Eigen::Isometry3d& T : keyframes_.pnp_poses(encoding, keyframes_.features(live_rgb_, live_depth_m_, intrinsics_), intrinsics_))
+  for (const Eigen::Isometry3d& T : keyframes_.pnp_poses(encoding, features, intrinsics_))
     starts.push_back(T);
   if (closest_attempt_) starts.push_back(closest_attempt_->second);
   for (const Eigen::Isometry3d& T : keyframes_.nearest(encoding, p.candidate_keyframes)) starts.push_back(T);
@@ -514,7 +513,6 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
       superpixels = segmenter_.superpixels(rgb, depth_m, width, height);
       sp_end = Clock::now();
     });
-  live_rgb_ = rgb, live_depth_m_ = depth_m;
   // The frame's keyframe encoding: for relocalisation now when lost, else for the database later.
   FrameEncoding encoding;
   const auto encode = [&] { encoding = keyframes_.encode(rgb, depth_m, width, height); };
@@ -552,7 +550,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
     }
     stage("track");
   } else if (frame_ > 0) {
-    camera = relocalise(bg, encoding) ? CameraState::kRecovered : CameraState::kLost;
+    camera = relocalise(bg, encoding, keyframes_.features(rgb, depth_m, intrinsics_)) ? CameraState::kRecovered
+                                                                                      : CameraState::kLost;
     if (camera == CameraState::kRecovered) out.events.push_back("frame " + std::to_string(frame_) + ": camera relocalised");
     stage("relocalise");
   }
@@ -636,8 +635,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   out.labels.assign(n, 0xFFFF);
   if (camera != CameraState::kLost)
     for (size_t i = 0; i < n; ++i) out.labels[i] = slots_[i] < kMoverSlot ? slot_to_id[slots_[i]] : uint16_t{0xFFFF};
-  if (camera == CameraState::kTracking && keyframes_.novel(T_world_camera_))
-    keyframes_.add_if_novel(encoding, keyframes_.features(rgb, depth_m, intrinsics_), T_world_camera_);
+  if (camera == CameraState::kTracking)
+    keyframes_.add_if_novel(encoding, [&] { return keyframes_.features(rgb, depth_m, intrinsics_); }, T_world_camera_);
   if (camera == CameraState::kTracking && frame_ > 0) {
     recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
@@ -733,13 +732,13 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   // spawn_max_area_fraction of the image is a candidate new model; it spawns one once it was a
   // candidate in the previous frame too (several objects starting to move at once each spawn).
   segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
-  const std::vector<char> no_spawn = mark_movers(outlier, slots);
+  const std::vector<char> mover = mark_movers(outlier, slots);
   std::vector<std::vector<size_t>> regions;  // pixels of each large outlier region, largest first
   {
     std::vector<int> large_components;
     for (int c = 0; c < int(components_.components.size()); ++c) {
       const auto& info = components_.components[size_t(c)];
-      if (info.value == outlier && !no_spawn[size_t(c)] && double(info.pixels) > p.spawn_min_area_fraction * double(n) &&
+      if (info.value == outlier && !mover[size_t(c)] && double(info.pixels) > p.spawn_min_area_fraction * double(n) &&
           double(info.pixels) <= p.spawn_max_area_fraction * double(n))
         large_components.push_back(c);
     }
@@ -1012,39 +1011,24 @@ void CoFusion::drop_nonrigid(const std::vector<Model*>& order, const std::vector
 
 // Mover regions (LifecycleParams::mover_min_overlap): the outlier components of this frame's
 // segmentation (components_) that overlap the previous frame's mover pixels enough; their pixels
-// become mover pixels. Outlier components that overlap as much the previous pixels of a model on
-// its rigidity trial are what its motion leaves unexplained of the body it follows (a person's
-// swinging arm): they spawn nothing while the trial decides. Returns per component whether it may
-// not spawn (a mover, or part of a body on trial).
+// become mover pixels. Returns per component whether it is a mover.
 std::vector<char> CoFusion::mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const {
   const size_t width = size_t(intrinsics_.width);
-  const LifecycleParams& p = params_.lifecycle;
-  std::vector<char> no_spawn(components_.components.size(), 0);
-  if (slots_.size() != slots.size()) return no_spawn;
-  std::array<bool, 256> on_trial{};
-  for (const auto& m : models_)
-    if (m->id != 0 && m->state == ModelState::kActive && frame_ - m->first_frame <= p.rigidity_trial_frames)
-      on_trial[size_t(m->slot)] = true;
-  std::vector<int64_t> mover_overlap(no_spawn.size(), 0), trial_overlap(no_spawn.size(), 0);
+  std::vector<char> mover(components_.components.size(), 0);
+  if (slots_.size() != slots.size()) return mover;
+  std::vector<int64_t> overlap(mover.size(), 0);
   for (const auto& run : components_.runs)
     if (run.component >= 0 && run.value == outlier)
-      for (int x = run.x0; x < run.x1; ++x) {
-        const uint8_t before = slots_[size_t(run.y) * width + size_t(x)];
-        mover_overlap[size_t(run.component)] += before == kMoverSlot;
-        trial_overlap[size_t(run.component)] += on_trial[before];
-      }
-  std::vector<char> mover(no_spawn.size(), 0);
+      for (int x = run.x0; x < run.x1; ++x) overlap[size_t(run.component)] += slots_[size_t(run.y) * width + size_t(x)] == kMoverSlot;
   for (size_t c = 0; c < mover.size(); ++c) {
     const auto& info = components_.components[c];
-    const double enough = p.mover_min_overlap * double(info.pixels);
-    if (info.value != outlier) continue;
-    mover[c] = mover_overlap[c] > 0 && double(mover_overlap[c]) >= enough;
-    no_spawn[c] = mover[c] || (trial_overlap[c] > 0 && double(trial_overlap[c]) >= enough);
+    mover[c] = info.value == outlier && overlap[c] > 0 &&
+               double(overlap[c]) >= params_.lifecycle.mover_min_overlap * double(info.pixels);
   }
   for (const auto& run : components_.runs)
     if (run.component >= 0 && mover[size_t(run.component)])
       for (int x = run.x0; x < run.x1; ++x) slots[size_t(run.y) * width + size_t(x)] = kMoverSlot;
-  return no_spawn;
+  return mover;
 }
 
 // Tries to align model m (inactive, or an object that lost every pixel this frame) with the

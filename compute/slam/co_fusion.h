@@ -338,7 +338,7 @@ class CoFusion {
                                        const std::vector<std::vector<float>>& costs, const float* depth_m,
                                        std::vector<Model*>& order, CoFusionFrame& out, std::vector<int>& spawned_slots);
   bool try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera);
-  bool relocalise(Model& bg, const FrameEncoding& encoding);
+  bool relocalise(Model& bg, const FrameEncoding& encoding, const FrameFeatures& features);
   void hold_still(const std::vector<Model*>& active, const std::string& why);
   std::vector<Model*> live_models() const;  // the active models, background first
   std::vector<char> mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const;
@@ -376,8 +376,6 @@ class CoFusion {
   // T_world_camera_ stays the last tracked pose meanwhile.
   KeyframeDatabase keyframes_;
   bool lost_ = false;
-  const uint8_t* live_rgb_ = nullptr;  // this frame's input, while process() runs
-  const float* live_depth_m_ = nullptr;
   // While lost: the previous frame's relocalisation attempt that came closest (RMS m, T_world_live).
   std::optional<std::pair<double, Eigen::Isometry3d>> closest_attempt_;
   std::vector<std::pair<double, double>> recent_tracking_;  // (inlier ratio, RMS m) of tracked frames, oldest first

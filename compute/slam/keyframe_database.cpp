@@ -69,21 +69,16 @@ double KeyframeDatabase::dissimilarity(const FrameEncoding& a, const FrameEncodi
   return di / double(blocks) + params_.depth_weight_per_m * dd / double(both);
 }
 
-bool KeyframeDatabase::novel(const Eigen::Isometry3d& T_world_camera) const {
+bool KeyframeDatabase::add_if_novel(const FrameEncoding& encoding, const std::function<FrameFeatures()>& features,
+                                    const Eigen::Isometry3d& T_world_camera) {
   for (const Keyframe& k : keyframes_) {
     const Eigen::Isometry3d d = k.T_world_camera.inverse() * T_world_camera;
     if (d.translation().norm() < params_.min_translation_m &&
         rotation_angle_rad(d) * 180.0 / std::numbers::pi < params_.min_rotation_deg)
       return false;
   }
-  return true;
-}
-
-bool KeyframeDatabase::add_if_novel(const FrameEncoding& encoding, FrameFeatures features,
-                                    const Eigen::Isometry3d& T_world_camera) {
-  if (!novel(T_world_camera)) return false;
   if (int(keyframes_.size()) >= params_.max_keyframes) keyframes_.erase(keyframes_.begin());
-  keyframes_.push_back({encoding, std::move(features), T_world_camera});
+  keyframes_.push_back({encoding, features(), T_world_camera});
   return true;
 }
 

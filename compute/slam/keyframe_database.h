@@ -11,6 +11,7 @@
 // Host only: the encoding costs about 1 ms at 640x480, features 5-10 ms (only for new keyframes
 // and lost frames).
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -77,10 +78,10 @@ class KeyframeDatabase {
 
   // ORB features of the frame with depth (rgb, depth_m as for encode()).
   FrameFeatures features(const uint8_t* rgb, const float* depth_m, const Intrinsics& intrinsics) const;
-  // Whether a frame at this pose would be added (far enough from every stored keyframe).
-  bool novel(const Eigen::Isometry3d& T_world_camera) const;
-  // Adds the frame as a keyframe when its pose is novel(). Returns whether it was added.
-  bool add_if_novel(const FrameEncoding& encoding, FrameFeatures features, const Eigen::Isometry3d& T_world_camera);
+  // Adds the frame as a keyframe when its pose is far enough from every stored keyframe's; its
+  // features are computed (by `features`) only then. Returns whether it was added.
+  bool add_if_novel(const FrameEncoding& encoding, const std::function<FrameFeatures()>& features,
+                    const Eigen::Isometry3d& T_world_camera);
   // Camera poses (T_world_camera) for a lost frame from its features matched against keyframes'
   // (KeyframeParams::pnp_*), best supported first.
   std::vector<Eigen::Isometry3d> pnp_poses(const FrameEncoding& encoding, const FrameFeatures& features,

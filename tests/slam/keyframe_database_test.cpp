@@ -88,22 +88,25 @@ TEST(KeyframeDatabase, KeepsOnlyNovelPosesAndFindsTheMostSimilar) {
   KeyframeParams p;
   p.max_keyframes = 3;
   KeyframeDatabase db(p);
+  int features_computed = 0;
+  const auto no_features = [&] { return ++features_computed, slam::FrameFeatures{}; };
   const std::vector<int> shifts = {0, 40, 80, 120};
   std::vector<FrameEncoding> enc;
   for (int s : shifts) {
     const Image im = ramp(160, 120, s, 2.0f);
     enc.push_back(db.encode(im.rgb.data(), im.depth_m.data(), 160, 120));
   }
-  EXPECT_TRUE(db.add_if_novel(enc[0], {}, translated(0.0)));
-  EXPECT_FALSE(db.add_if_novel(enc[1], {}, translated(0.05)));  // within 10 cm of the first
-  EXPECT_TRUE(db.add_if_novel(enc[1], {}, translated(0.5)));
-  EXPECT_TRUE(db.add_if_novel(enc[2], {}, translated(1.0)));
+  EXPECT_TRUE(db.add_if_novel(enc[0], no_features, translated(0.0)));
+  EXPECT_FALSE(db.add_if_novel(enc[1], no_features, translated(0.05)));  // within 10 cm of the first
+  EXPECT_TRUE(db.add_if_novel(enc[1], no_features, translated(0.5)));
+  EXPECT_TRUE(db.add_if_novel(enc[2], no_features, translated(1.0)));
   EXPECT_EQ(db.size(), 3u);
+  EXPECT_EQ(features_computed, 3);  // not for the frame that was not added
   const auto nearest = db.nearest(enc[1], 2);
   ASSERT_EQ(nearest.size(), 2u);
   EXPECT_NEAR(nearest[0].translation().x(), 0.5, 1e-12);
   // The fourth drops the oldest.
-  EXPECT_TRUE(db.add_if_novel(enc[3], {}, translated(1.5)));
+  EXPECT_TRUE(db.add_if_novel(enc[3], no_features, translated(1.5)));
   EXPECT_EQ(db.size(), 3u);
   for (const auto& T : db.nearest(enc[0], 3)) EXPECT_GT(T.translation().x(), 0.25);
 }
@@ -132,7 +135,7 @@ TEST(KeyframeDatabase, FeaturesLocateAMovedCameraByPnP) {
   KeyframeDatabase db{KeyframeParams{}};
   const slam::FrameFeatures key = db.features(key_rgb.data(), depth.data(), k);
   ASSERT_GT(key.pixels.size(), 100u);
-  ASSERT_TRUE(db.add_if_novel(db.encode(key_rgb.data(), depth.data(), k.width, k.height), key, Eigen::Isometry3d::Identity()));
+  ASSERT_TRUE(db.add_if_novel(db.encode(key_rgb.data(), depth.data(), k.width, k.height), [&] { return key; }, Eigen::Isometry3d::Identity()));
   const auto poses = db.pnp_poses(db.encode(live_rgb.data(), depth.data(), k.width, k.height),
                                   db.features(live_rgb.data(), depth.data(), k), k);
   ASSERT_FALSE(poses.empty());
