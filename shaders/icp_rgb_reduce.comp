@@ -54,8 +54,8 @@ vec3 intensity_jacobian(vec2 g, vec3 q) {
   return vec3(g.x * p.fx * inv_z, g.y * p.fy * inv_z, -(g.x * p.fx * q.x + g.y * p.fy * q.y) * inv_z * inv_z);
 }
 // Huber weight, applied as sqrt(w) to J and r: sums of w J^T J, w J^T r, w r^2.
-float huber_sqrt_weight(float r) {
-  return p.rgb_huber_delta > 0.0 && abs(r) > p.rgb_huber_delta ? sqrt(p.rgb_huber_delta / abs(r)) : 1.0;
+float huber_sqrt_weight(float r, float delta) {
+  return delta > 0.0 && abs(r) > delta ? sqrt(delta / abs(r)) : 1.0;
 }
 // Weights of the pixels (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1) at fraction a.
 vec4 bilinear_weights(vec2 a) {
@@ -102,7 +102,9 @@ void main() {
       const vec4 n_ref = texel_vec4(ref_normal, j);
       const vec3 d = q - v_ref.xyz;
       if (n_ref.w > 0.0 && dot(d, d) <= max_d2 && dot(R * n_live.xyz, n_ref.xyz) >= p.min_normal_cos) {
-        accumulate(icp, n_ref.xyz, cross(q, n_ref.xyz), dot(n_ref.xyz, d));
+        const float r = dot(n_ref.xyz, d);
+        const float sw = huber_sqrt_weight(r, p.icp_huber_delta_m);
+        accumulate(icp, sw * n_ref.xyz, sw * cross(q, n_ref.xyz), sw * r);
       }
     }
 
@@ -123,7 +125,7 @@ void main() {
                     wts.z * texel_vec2(ref_gradient, j01) + wts.w * texel_vec2(ref_gradient, j11)) * (1.0 / 255.0);
           if (p.esm_gradient != 0u) g = 0.5 * (g + texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
-          const float sw = huber_sqrt_weight(r);
+          const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
           accumulate(rgb, sw * dI_dq, sw * cross(q, dI_dq), sw * r);
         }
       }
@@ -158,7 +160,7 @@ void main() {
       const vec2 g = (wts.x * texel_vec2(live_gradient, i00) + wts.y * texel_vec2(live_gradient, i10) +
                       wts.z * texel_vec2(live_gradient, i01) + wts.w * texel_vec2(live_gradient, i11)) * (1.0 / 255.0);
       const vec3 G = R * intensity_jacobian(g, x_live);
-      const float sw = huber_sqrt_weight(r);
+      const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
       accumulate(rgb, -sw * G, -sw * cross(v_ref.xyz, G), sw * r);
     }
   }

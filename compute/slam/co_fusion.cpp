@@ -371,9 +371,9 @@ void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
     const double moved_n = t.icp_inliers;
     const double moved_cost = mean_cost(t.icp_rms_m * t.icp_rms_m * moved_n, moved_n, t.rgb_rms * t.rgb_rms * t.rgb_residuals,
                                         t.rgb_residuals);
-    const double huber_delta = tp.photometric_huber_k * t.rgb_rms;  // as tracking's last iteration
+    const HuberDeltas huber{tp.icp_huber_k * t.icp_rms_m, tp.photometric_huber_k * t.rgb_rms};  // as tracking's last iteration
     const LinearSystemSums still =
-        m.tracker.compute_sums(m.stream, m.masked[0], m.prediction.levels[0], camera_motion, m.track_rect, huber_delta);
+        m.tracker.compute_sums(m.stream, m.masked[0], m.prediction.levels[0], camera_motion, m.track_rect, huber);
     const double still_cost = mean_cost(still.icp[27], still.icp[28], still.rgb[27], still.rgb[28]);
     if (moved_n > 0 && still.icp[28] >= rest.min_correspondence_fraction * moved_n &&
         still_cost <= (1.0 + rest.max_cost_increase) * moved_cost)

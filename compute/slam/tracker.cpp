@@ -88,7 +88,7 @@ void Tracker::set_params(const TrackerParams& params) {
 LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
                                        const kernels::FramePyramid::Level& reference,
                                        const Eigen::Isometry3d& T_reference_live,
-                                       const std::optional<PixelRect>& rect, double rgb_huber_delta) {
+                                       const std::optional<PixelRect>& rect, const HuberDeltas& huber) {
   const Intrinsics& k = live.intrinsics;
   L::IcpRgbReduceParams p{};
   const Eigen::Matrix<double, 3, 4> T = T_reference_live.matrix().topRows<3>();
@@ -103,7 +103,8 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.max_distance_m = static_cast<float>(params_.max_correspondence_distance_m);
   p.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_deg * std::numbers::pi / 180.0));
   p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
-  p.rgb_huber_delta = static_cast<float>(rgb_huber_delta);
+  p.rgb_huber_delta = static_cast<float>(huber.rgb);
+  p.icp_huber_delta_m = static_cast<float>(huber.icp_m);
   p.use_photometric = params_.use_photometric ? 1u : 0u;
   p.esm_gradient = params_.esm_gradient ? 1u : 0u;
   p.outline_photometric = params_.outline_photometric ? 1u : 0u;
@@ -158,11 +159,11 @@ TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::Fr
   for (const auto& level : live) pixels.push_back(static_cast<long>(level.width) * level.height);
   return gauss_newton(
       pixels,
-      [&](int level, const Eigen::Isometry3d& T, double rgb_huber_delta) {
+      [&](int level, const Eigen::Isometry3d& T, const HuberDeltas& huber) {
         const auto& l = live[size_t(level)];
         return compute_sums(stream, l, reference[size_t(level)], T,
                             rect_level0 ? std::optional(rect_level0->at_level(level, l.width, l.height)) : std::nullopt,
-                            rgb_huber_delta);
+                            huber);
       },
       T_reference_live_guess, params_);
 }

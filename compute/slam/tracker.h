@@ -42,11 +42,11 @@ class Tracker {
   // The sums of one Gauss-Newton iteration at one level, at pose T_reference_live (what track()
   // computes per iteration; exposed for the GPU-vs-CPU tests).
   // `rect`: live pixels of this level that take part (none = all; clamped to the level).
-  // `rgb_huber_delta`: photometric residuals beyond it are Huber-weighted (0 = none).
+  // `huber`: residuals beyond its thresholds are Huber-weighted (0 = none).
   LinearSystemSums compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
                                 const kernels::FramePyramid::Level& reference,
                                 const Eigen::Isometry3d& T_reference_live,
-                                const std::optional<PixelRect>& rect = std::nullopt, double rgb_huber_delta = 0);
+                                const std::optional<PixelRect>& rect = std::nullopt, const HuberDeltas& huber = {});
 
   const TrackerParams& params() const { return params_; }
   void set_params(const TrackerParams& params);

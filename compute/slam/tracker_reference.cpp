@@ -87,7 +87,7 @@ std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<ke
 
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
                               const TrackerParams& params, const std::optional<PixelRect>& rect,
-                              double rgb_huber_delta) {
+                              const HuberDeltas& huber) {
   check_same_size(live, ref, "tracker reference");
   const Intrinsics& k = live.intrinsics;
   const int w = k.width, h = k.height;
@@ -118,7 +118,8 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         if (n_ref4.w > 0 && d.norm() <= max_d && (R * xyz(n_live)).dot(n_ref) >= min_cos) {
           Vector6d J;
           J << n_ref, q.cross(n_ref);
-          add(sums.icp, J, n_ref.dot(d));
+          const double r = n_ref.dot(d), sw = huber_sqrt_weight(r, huber.icp_m);
+          add(sums.icp, sw * J, sw * r);
         }
       }
 
@@ -136,7 +137,7 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
           gy = 0.5 * (gy + live.gradient.at(u, v).y / 255.0);
         }
         const Eigen::Vector3d dI_dq = intensity_jacobian(gx, gy, k, q);
-        const double sw = huber_sqrt_weight(r, rgb_huber_delta);
+        const double sw = huber_sqrt_weight(r, huber.rgb);
         Vector6d J;
         J << sw * dI_dq, sw * q.cross(dI_dq);
         add(sums.rgb, J, sw * r);
@@ -164,7 +165,7 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         if (!(std::abs(r) <= params.max_intensity_diff)) continue;
         const double gx = b(live.gradient, gradient_x) / 255.0, gy = b(live.gradient, gradient_y) / 255.0;
         const Eigen::Vector3d G = R * intensity_jacobian(gx, gy, k, x_live);
-        const double sw = huber_sqrt_weight(r, rgb_huber_delta);
+        const double sw = huber_sqrt_weight(r, huber.rgb);
         Vector6d J;
         J << -sw * G, -sw * v_ref.cross(G);
         add(sums.rgb, J, sw * r);
@@ -185,8 +186,8 @@ TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostL
   for (const auto& level : live) pixels.push_back(static_cast<long>(level.intrinsics.width) * level.intrinsics.height);
   return gauss_newton(
       pixels,
-      [&](int level, const Eigen::Isometry3d& T, double rgb_huber_delta) {
-        return compute_sums(live[level], reference[level], T, params, std::nullopt, rgb_huber_delta);
+      [&](int level, const Eigen::Isometry3d& T, const HuberDeltas& huber) {
+        return compute_sums(live[level], reference[level], T, params, std::nullopt, huber);
       },
       guess, params);
 }

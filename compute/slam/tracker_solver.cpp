@@ -53,6 +53,7 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.photometric_weight >= 0 && std::isfinite(p.photometric_weight))) bad("photometric_weight must be >= 0");
   if (!(p.max_intensity_diff > 0)) bad("max_intensity_diff must be > 0");
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
+  if (!(p.icp_huber_k >= 0)) bad("icp_huber_k must be >= 0");
   if (!(p.outline_occlusion_margin_m >= 0 && std::isfinite(p.outline_occlusion_margin_m)))
     bad("outline_occlusion_margin_m must be >= 0");
   if (p.min_correspondences < 0) bad("min_correspondences must be >= 0");
@@ -79,14 +80,14 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
   const int levels = static_cast<int>(level_pixels.size());
   Eigen::Isometry3d T = guess;
   bool evaluated = false;
-  double rgb_huber_delta = 0;  // the first iteration is plain least squares
+  HuberDeltas huber;  // the first iteration is plain least squares
   for (int level = levels - 1; level >= 0; --level) {
     const std::string where = "level " + std::to_string(level);
     // Fewer pixels, fewer correspondences needed (but never fewer than two per unknown).
     const double pixel_share = static_cast<double>(level_pixels[level]) / static_cast<double>(level_pixels[0]);
     const double min_corr = std::max(12.0, params.min_correspondences * pixel_share);
     for (int it = 0; it < params.iterations_per_level[level]; ++it) {
-      const LinearSystemSums s = sums(level, T, rgb_huber_delta);
+      const LinearSystemSums s = sums(level, T, huber);
       evaluated = true;
       ++result.iterations;
       result.icp_inliers = static_cast<int>(s.icp[28]);
@@ -97,7 +98,7 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
       result.inlier_ratio = comparable > 0 ? s.icp[28] / comparable : 0.0;
       result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
       result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
-      rgb_huber_delta = params.photometric_huber_k * result.rgb_rms;
+      huber = {params.icp_huber_k * result.icp_rms_m, params.photometric_huber_k * result.rgb_rms};
       if (level > 0 && s.icp[28] < params.min_coarse_level_correspondences) break;  // on to the next finer level
       if (s.icp[28] < min_corr)
         return fail("too few ICP correspondences at " + where + ": " + std::to_string(result.icp_inliers) +

@@ -71,6 +71,11 @@ struct TrackerParams {
   // fr1/rpy 2.9 vs 3.0 cm. A fixed delta, or robust weights only at the finer levels, lost either
   // fr1/rpy (4-20 cm) or the box.
   double photometric_huber_k = 1.345;
+  // Robust ICP term, by the same rule: point-to-plane residuals beyond icp_huber_k times the
+  // previous iteration's RMS ICP residual get Huber weight delta / |r| (0 = never robust). Points
+  // of something that moves a little (a person close to the camera), inside the correspondence
+  // distance, then pull the pose less than the static scene does.
+  double icp_huber_k = 0;
 
   // Failure rules. On failure the result pose is the guess.
   // Fewest ICP correspondences at full resolution; coarser levels need this times their share of
@@ -105,6 +110,13 @@ struct TrackerParams {
   // GPU only: workgroups of the reduction (each loops over its share of the pixels). A few large
   // ones suit lavapipe (2 threads); discrete GPUs want many more.
   int reduction_workgroups = 16;
+};
+
+// Huber thresholds of one iteration's sums: residuals beyond them get weight delta / |r| (the
+// sums then hold w J^T J, w J^T r, w r^2); 0 = plain least squares for that term.
+struct HuberDeltas {
+  double icp_m = 0;  // point-to-plane residual, metres
+  double rgb = 0;    // photometric residual, intensity / 255
 };
 
 struct TrackingResult {
@@ -150,9 +162,9 @@ void unpack_term(const std::array<double, LinearSystemSums::kTermValues>& term, 
 double balanced_eigenvalue_ratio(const Matrix6d& H);
 
 // The sums of one iteration at pyramid level `level` (0 = finest) and pose T_reference_live, with
-// photometric residuals beyond rgb_huber_delta (intensity / 255; 0 = none) Huber-weighted.
+// residuals beyond the scales Huber-weighted.
 using SumsAtLevel =
-    std::function<LinearSystemSums(int level, const Eigen::Isometry3d& T_reference_live, double rgb_huber_delta)>;
+    std::function<LinearSystemSums(int level, const Eigen::Isometry3d& T_reference_live, const HuberDeltas& huber)>;
 
 // Coarse-to-fine Gauss-Newton over `level_pixels.size()` levels (pixel counts, finest first):
 // T <- exp(xi) * T with H xi = -b, H = H_icp + lambda H_rgb. Applies every failure rule of

@@ -318,6 +318,9 @@ struct IcpRgbReduceParams {
   uint outline_photometric;
   // Outline term: a model pixel whose live depth there is nearer by more than this is occluded.
   float outline_occlusion_margin_m;
+  // ICP: point-to-plane residuals beyond this (metres) get Huber weight delta / |r|, like the
+  // photometric ones; 0 = none.
+  float icp_huber_delta_m;
 };
 
 
