@@ -8,6 +8,7 @@
 #include "commands/sources.h"
 #include "kernels/preprocess.h"
 #include "commands/config.h"
+#include "commands/semantic_source.h"
 #include "slam/co_fusion.h"
 #include "slam/dense_slam.h"
 #include <map>
@@ -30,6 +31,10 @@ struct BenchOptions {
   bool models = true;
   // GPU time per kernel (timestamp queries) beside the pipeline and multi-object tables.
   bool kernel_profile = false;
+  // Semantic figures: this scene (it has instance masks) in each segmentation mode, with its own
+  // masks and with the built-in detector (when its models are there).
+  std::string semantic_input = "synthetic:table_placement";
+  bool semantic = true;
 };
 
 // Per-kernel GPU time summed over frames (see gpu/kernel_profile.h).
@@ -113,11 +118,8 @@ void bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const s
   print_kernel_table(kernel_times);
 }
 
-// Co-Fusion over a scene (motion segmentation, lifecycle, one model per moving object): every
-// frame is timed and grouped by the number of models tracked in it, so the figures read as "fps
-// with N models". Superpixels run on the CPU job system while the GPU tracks; the overlap column
-// says how much of that time was hidden behind GPU work.
-void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
+// Every frame of `input` (at most max_frames), in memory.
+std::vector<Frame> read_frames(const std::string& input, int max_frames) {
   SourceOptions source_options;
   source_options.max_frames = max_frames;
   auto source = open_source(input, source_options);
@@ -128,6 +130,15 @@ void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
     frames.push_back(std::move(*frame));
   }
   if (frames.size() < 4) throw Error("bench: need at least 4 frames of " + input);
+  return frames;
+}
+
+// Co-Fusion over a scene (motion segmentation, lifecycle, one model per moving object): every
+// frame is timed and grouped by the number of models tracked in it, so the figures read as "fps
+// with N models". Superpixels run on the CPU job system while the GPU tracks; the overlap column
+// says how much of that time was hidden behind GPU work.
+void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
+  const std::vector<Frame> frames = read_frames(input, max_frames);
   const Intrinsics k = frames[0].intrinsics;
   slam::CoFusion slam(ctx, k, PipelineConfig{}.cofusion());
   std::map<size_t, StageTimes> by_models;
@@ -148,7 +159,7 @@ void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
     times.add("  segmentation after tracking", r.segment_ms);
     times.add("whole frame", ms);
   }
-  std::printf("\nmulti-object pipeline on %s (%dx%d, %zu frames, first 2 not counted)\n", source->describe().c_str(),
+  std::printf("\nmulti-object pipeline on %s (%dx%d, %zu frames, first 2 not counted)\n", input.c_str(),
               k.width, k.height, frames.size());
   for (const auto& [models, times] : by_models) {
     std::printf("\n%zu active model%s, %zu frames: %.2f frames per second (median frame)\n", models,
@@ -156,6 +167,55 @@ void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
     print_table(times);
     if (auto it = kernels_by_models.find(models); it != kernels_by_models.end()) print_kernel_table(it->second);
   }
+}
+
+// One segmentation mode with one source of instance masks over `frames`, as `cofusion run` does
+// it (the detector asynchronous, each frame given the previous frame's detection).
+void bench_semantic_mode(gpu::Context& ctx, const std::vector<Frame>& frames, slam::SegmentationMode mode,
+                         const std::string& masks) {
+  slam::CoFusionParams params = PipelineConfig{}.cofusion();
+  params.semantic.mode = mode;
+  slam::CoFusion slam(ctx, frames[0].intrinsics, params);
+  std::unique_ptr<AsyncDetector> detector;
+  if (masks == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), frames[0].intrinsics, true);
+  StageTimes times;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const Frame& f = frames[i];
+    const auto start = std::chrono::steady_clock::now();
+    std::optional<slam::SemanticFrame> own;
+    const slam::SemanticFrame* semantic = nullptr;
+    if (masks == "masks") {
+      own = semantic_frame_from_masks(f);
+      semantic = own ? &*own : nullptr;
+    } else if (detector) {
+      semantic = detector->for_frame(f.index);
+      detector->submit(f.index, f.rgb, f.depth_m);
+    }
+    slam.process(f.depth_m.ptr<float>(), f.rgb.data, semantic);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (i >= 2) times.add("whole frame", ms);  // start-up: pipeline compilation, first fusion
+  }
+  std::printf("  %-9s %-9s %6.2f fps (median frame %6.1f ms)", slam::to_string(mode),
+              masks.c_str(), 1000.0 / times.median("whole frame"), times.median("whole frame"));
+  if (detector)
+    std::printf("; detector %.0f ms per run, ran on %d of %zu frames", detector->mean_detection_ms(),
+                detector->detections_started(), frames.size());
+  std::printf("\n");
+}
+
+// fps per segmentation mode and mask source (issue: semantic instance segmentation, benchmark).
+void bench_semantic(gpu::Context& ctx, const std::string& input, int max_frames) {
+  const std::vector<Frame> frames = read_frames(input, max_frames);
+  std::printf("\nsegmentation modes on %s (%zu frames, first 2 not counted)\n", input.c_str(), frames.size());
+  bench_semantic_mode(ctx, frames, slam::SegmentationMode::kMotion, "none");
+  const bool has_masks = !frames[0].mask.empty();
+  std::error_code ec;
+  const bool has_detector = std::filesystem::is_regular_file(default_models_dir() / "centernet.pb", ec);
+  for (const auto mode : {slam::SegmentationMode::kSemantic, slam::SegmentationMode::kBoth}) {
+    if (has_masks) bench_semantic_mode(ctx, frames, mode, "masks");
+    if (has_detector) bench_semantic_mode(ctx, frames, mode, "detector");
+  }
+  if (!has_detector) std::printf("  (no detector figures: its models are not in %s)\n", default_models_dir().c_str());
 }
 
 // Times `record` submitted alone, `iterations` times, after `warmup` untimed runs (the first
@@ -238,6 +298,9 @@ void add_bench(CLI::App& app) {
   cmd->add_flag("!--no-pipeline", options->pipeline, "Skip the whole-pipeline figures");
   cmd->add_option("--models-input", options->model_inputs, "Scenes for the multi-object figures (SOURCEs as for run)");
   cmd->add_flag("!--no-models", options->models, "Skip the multi-object figures");
+  cmd->add_option("--semantic-input", options->semantic_input,
+                  "Scene for the per-segmentation-mode figures (a SOURCE as for run; its masks are used where it has them)");
+  cmd->add_flag("!--no-semantic", options->semantic, "Skip the per-segmentation-mode figures");
   cmd->add_flag("--kernel-profile", options->kernel_profile,
                 "Also print GPU time per kernel for the pipeline and multi-object figures (timestamp queries)");
   cmd->callback([options] {
@@ -272,6 +335,7 @@ void add_bench(CLI::App& app) {
     }
     if (options->models)
       for (const auto& input : options->model_inputs) bench_models(ctx, input, options->frames);
+    if (options->semantic) bench_semantic(ctx, options->semantic_input, options->frames);
     if (ctx.validation_error_count() > 0) throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors");
   });
 }

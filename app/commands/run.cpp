@@ -114,13 +114,6 @@ std::vector<std::string> split_list(const std::string& text) {
   return out;
 }
 
-// build/models beside build/app/cofusion: the folder .ci/fetch-models.sh fills by default.
-fs::path default_models_dir() {
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return semantic::models_dir(ec ? fs::path("build/models") : exe.parent_path().parent_path() / "models");
-}
-
 void run(const RunOptions& o) {
   if (handle_list_devices(o.gpu)) return;
   const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
@@ -173,6 +166,7 @@ void run(const RunOptions& o) {
   // Where the instance masks come from, decided at the first frame (whether the input has masks).
   std::string semantic_source = o.semantic_source;
   std::unique_ptr<AsyncDetector> detector;
+  const bool live_input = o.input.rfind("openni2", 0) == 0;  // a camera: the detector never holds it up
   std::optional<slam::SemanticFrame> frame_masks;
   StageTimes times;
   Trajectory camera;
@@ -267,11 +261,11 @@ void run(const RunOptions& o) {
         std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
       }
       if (semantic_source != "none") std::printf("instance masks: %s\n", semantic_source.c_str());
-      if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics);
+      if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input);
     }
     if (semantic_source == "masks" && frame->mask.empty())
       throw Error("frame " + std::to_string(frame->index) + " has no instance mask (--semantic-source masks)");
-    if (semantic_source == "detector" && !detector) detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics);
+    if (semantic_source == "detector" && !detector) detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input);
     const slam::SemanticFrame* semantic = nullptr;
     if (semantic_source == "masks") {
       frame_masks = semantic_frame_from_masks(*frame);

@@ -7,6 +7,12 @@
 
 namespace cofusion::commands {
 
+std::filesystem::path default_models_dir() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return semantic::models_dir(ec ? std::filesystem::path("build/models") : exe.parent_path().parent_path() / "models");
+}
+
 std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame) {
   if (frame.mask.empty()) return std::nullopt;
   if (frame.mask.type() != CV_16UC1 || frame.mask.cols != frame.depth_m.cols || frame.mask.rows != frame.depth_m.rows)
@@ -18,10 +24,12 @@ std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame)
   return s;
 }
 
-AsyncDetector::AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, int max_age_frames)
+AsyncDetector::AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, bool wait_for_result,
+                             int max_age_frames)
     : detector_(models / "centernet.pb"),
       segmenter_(models / "selfie.pb"),
       intrinsics_(intrinsics),
+      wait_for_result_(wait_for_result),
       max_age_frames_(max_age_frames) {}
 
 AsyncDetector::~AsyncDetector() { jobs_.wait(); }
@@ -56,6 +64,7 @@ bool AsyncDetector::submit(int frame_index, const cv::Mat& rgb, const cv::Mat& d
 }
 
 const slam::SemanticFrame* AsyncDetector::for_frame(int frame_index) {
+  if (wait_for_result_) jobs_.wait();
   if (!running_.load(std::memory_order_acquire) && result_frame_ > current_frame_) {
     current_ = result_;
     current_frame_ = result_frame_;

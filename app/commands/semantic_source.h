@@ -16,6 +16,10 @@
 
 namespace cofusion::commands {
 
+// The detector's models: $COFUSION_MODELS, else build/models beside build/app/cofusion (the folder
+// .ci/fetch-models.sh fills by default).
+std::filesystem::path default_models_dir();
+
 // A frame's own masks as the pipeline takes them; nullopt when it has none.
 std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame);
 
@@ -26,10 +30,14 @@ std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame)
 // where they were, not where they are): warping masks by the models' motion is not done. With
 // max_age_frames = 1 a result made from frame k is used for frame k + 1 when it finished before
 // that frame is processed (it cannot be used for frame k itself without waiting).
+// With `wait_for_result` (recordings), for_frame() first waits for a running detection, so each
+// frame gets the previous frame's result whatever the timing: runs are reproducible. A live camera
+// does not wait (frames keep coming).
 class AsyncDetector {
  public:
   // models: folder with centernet.pb and selfie.pb. Throws cofusion::Error naming a missing file.
-  AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, int max_age_frames = 1);
+  AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, bool wait_for_result,
+                int max_age_frames = 1);
   ~AsyncDetector();  // waits for a running detection
   AsyncDetector(const AsyncDetector&) = delete;
   AsyncDetector& operator=(const AsyncDetector&) = delete;
@@ -48,6 +56,7 @@ class AsyncDetector {
   semantic::Detector detector_;
   semantic::PersonSegmenter segmenter_;
   Intrinsics intrinsics_;
+  bool wait_for_result_;
   int max_age_frames_;
   tbb::task_group jobs_;
   std::atomic<bool> running_{false};

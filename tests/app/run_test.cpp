@@ -317,13 +317,28 @@ TEST(RunCommand, ViewerWindowRunsUnderXvfbAndTakesAScreenshot) {
 
 TEST(BenchCommand, KernelProfileListsEveryStreamGroupsKernels) {
   const Result r = run_cofusion(
-      "bench --no-kernels --no-pipeline --models-input synthetic:two_objects --frames 5 --kernel-profile");
+      "bench --no-kernels --no-pipeline --no-semantic --models-input synthetic:two_objects --frames 5 --kernel-profile");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("GPU time per kernel (timestamp queries), per frame over 3 frames"));
   for (const char* row : {"frame: bilateral_depth ", "background: splat_surfels for prediction ",
                           "background: splat_surfels for fusion ", "background: fuse_associate ",
                           "background: icp_rgb_reduce 640x480 ", "background: icp_rgb_reduce 80x60 ", "all kernels "})
     EXPECT_THAT(r.output, HasSubstr(row)) << r.output;
+}
+
+// fps per segmentation mode: motion alone, then semantic and both with the scene's own masks
+// and (where the converted models are) with the detector, which reports its time and how often it ran.
+TEST(BenchCommand, SemanticFiguresPerModeAndMaskSource) {
+  const Result r = run_cofusion("bench --no-kernels --no-pipeline --no-models --semantic-input synthetic:walking_people --frames 6");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("segmentation modes on synthetic:walking_people (6 frames")) << r.output;
+  for (const char* row : {"motion    none ", "semantic  masks ", "both      masks "})
+    EXPECT_THAT(r.output, HasSubstr(row)) << r.output;
+  const char* models = std::getenv("COFUSION_MODELS");
+  if (models && fs::is_regular_file(fs::path(models) / "centernet.pb")) {
+    EXPECT_THAT(r.output, HasSubstr("both      detector ")) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("ms per run, ran on ")) << r.output;
+  }
 }
 
 TEST(RunCommand, EverySubcommandHasHelp) {
