@@ -104,6 +104,10 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("min_coarse_level_correspondences", c.min_coarse_level_correspondences)
       .field("min_inlier_ratio", c.min_inlier_ratio)
       .field("min_eigenvalue_ratio", c.min_eigenvalue_ratio)
+      .field("max_step_translation_m", c.max_step_translation_m)
+      .field("max_step_rotation_deg", c.max_step_rotation_deg)
+      .field("max_translation_from_guess_m", c.max_translation_from_guess_m)
+      .field("max_rotation_from_guess_deg", c.max_rotation_from_guess_deg)
       .field("reduction_workgroups", c.reduction_workgroups)
       .field("converged_translation_m", c.converged_translation_m)
       .field("converged_rotation_rad", c.converged_rotation_rad);
@@ -250,6 +254,17 @@ PipelineConfig load_config(const std::filesystem::path& path) {
   s.section("costs", file + ": costs", [&](Section& q) { read_costs(q, config.costs); });
   s.section("lifecycle", file + ": lifecycle", [&](Section& q) { read_lifecycle(q, config.lifecycle); });
   s.section("segmentation", file + ": segmentation", [&](Section& q) { read_segmentation(q, config.segmentation); });
+  s.section("semantic", file + ": semantic", [&](Section& q) {
+    // Mode, excluded and modelled classes come from the command line (--segmentation, --exclude,
+    // --classes); the thresholds from here.
+    q.field("confirm_frames", config.semantic.confirm_frames)
+        .field("min_instance_area_fraction", config.semantic.min_instance_area_fraction)
+        .field("join_min_iou", config.semantic.join_min_iou);
+    if (config.semantic.confirm_frames < 1 ||
+        !(config.semantic.min_instance_area_fraction >= 0 && config.semantic.min_instance_area_fraction <= 1) ||
+        !(config.semantic.join_min_iou > 0 && config.semantic.join_min_iou <= 1))
+      throw Error(q.where() + ": confirm_frames must be >= 1, min_instance_area_fraction in [0, 1] and join_min_iou in (0, 1]");
+  });
   s.section("rest", file + ": rest", [&](Section& q) {
     q.field("prefer_rest", config.rest.prefer_rest)
         .field("max_cost_increase", config.rest.max_cost_increase)

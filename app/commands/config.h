@@ -19,6 +19,7 @@ struct PipelineConfig {
   slam::MotionCostParams costs;
   slam::LifecycleParams lifecycle;
   slam::RestParams rest;
+  slam::SemanticParams semantic;  // thresholds only: mode and classes come from the command line
   bool motion_segmentation = true;
 
   // By name: an aggregate initialiser in member order silently put motion_segmentation into
@@ -30,6 +31,7 @@ struct PipelineConfig {
     p.costs = costs;
     p.lifecycle = lifecycle;
     p.rest = rest;
+    p.semantic = semantic;
     p.motion_segmentation = motion_segmentation;
     return p;
   }

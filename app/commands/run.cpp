@@ -40,6 +40,7 @@ struct RunOptions {
   std::string segmentation = "motion";
   std::string semantic_source;  // masks | detector | none; empty = masks when the input has them, else detector
   std::string exclude = "person";
+  int detector_every = 1;  // detections start on every this many frames
   std::string classes;
   GpuCliOptions gpu;
 };
@@ -261,11 +262,11 @@ void run(const RunOptions& o) {
         std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
       }
       if (semantic_source != "none") std::printf("instance masks: %s\n", semantic_source.c_str());
-      if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input);
+      if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
     }
     if (semantic_source == "masks" && frame->mask.empty())
       throw Error("frame " + std::to_string(frame->index) + " has no instance mask (--semantic-source masks)");
-    if (semantic_source == "detector" && !detector) detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input);
+    if (semantic_source == "detector" && !detector) detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
     const slam::SemanticFrame* semantic = nullptr;
     if (semantic_source == "masks") {
       frame_masks = semantic_frame_from_masks(*frame);
@@ -421,6 +422,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--exclude", o->exclude,
                   "Comma-separated classes whose pixels are never modelled, fused or tracked with (default person; "
                   "\"\" = none)");
+  cmd->add_option("--detector-every", o->detector_every,
+                  "Start a detection on every Nth frame only (default 1; the frames between get no masks)")
+      ->check(CLI::Range(1, 1000));
   cmd->add_option("--classes", o->classes, "Comma-separated classes that become models in semantic/both modes (default all)");
   o->gpu.add_to(*cmd);
   cmd->callback([o] { run(*o); });

@@ -25,16 +25,20 @@ std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame)
 }
 
 AsyncDetector::AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, bool wait_for_result,
-                             int max_age_frames)
+                             int every_frames, int max_age_frames)
     : detector_(models / "centernet.pb"),
       segmenter_(models / "selfie.pb"),
       intrinsics_(intrinsics),
       wait_for_result_(wait_for_result),
-      max_age_frames_(max_age_frames) {}
+      every_frames_(every_frames),
+      max_age_frames_(max_age_frames) {
+  if (every_frames < 1) throw Error("the detector's frame interval must be >= 1, not " + std::to_string(every_frames));
+}
 
 AsyncDetector::~AsyncDetector() { jobs_.wait(); }
 
 bool AsyncDetector::submit(int frame_index, const cv::Mat& rgb, const cv::Mat& depth_m) {
+  if (every_frames_ > 1 && frame_index % every_frames_ != 0) return false;
   if (running_.load(std::memory_order_acquire)) return false;
   jobs_.wait();  // the finished task's group (returns at once)
   running_.store(true, std::memory_order_release);

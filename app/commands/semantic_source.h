@@ -32,18 +32,20 @@ std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame)
 // that frame is processed (it cannot be used for frame k itself without waiting).
 // With `wait_for_result` (recordings), for_frame() first waits for a running detection, so each
 // frame gets the previous frame's result whatever the timing: runs are reproducible. A live camera
-// does not wait (frames keep coming).
+// does not wait (frames keep coming). With `every_frames` N > 1 detections start only on frames
+// whose index is a multiple of N (the detector's share of the CPU bounded; the frames between get
+// no masks: their people are followed as movers by the motion segmentation).
 class AsyncDetector {
  public:
   // models: folder with centernet.pb and selfie.pb. Throws cofusion::Error naming a missing file.
   AsyncDetector(const std::filesystem::path& models, const Intrinsics& intrinsics, bool wait_for_result,
-                int max_age_frames = 1);
+                int every_frames = 1, int max_age_frames = 1);
   ~AsyncDetector();  // waits for a running detection
   AsyncDetector(const AsyncDetector&) = delete;
   AsyncDetector& operator=(const AsyncDetector&) = delete;
 
-  // Starts a detection on this frame (its pixels are copied) unless one is running. Returns
-  // whether it started.
+  // Starts a detection on this frame (its pixels are copied) unless one is running or the frame
+  // is not one of every_frames. Returns whether it started.
   bool submit(int frame_index, const cv::Mat& rgb, const cv::Mat& depth_m);
   // The masks for frame `frame_index` (see the class comment), or null. Valid until the next call.
   const slam::SemanticFrame* for_frame(int frame_index);
@@ -57,6 +59,7 @@ class AsyncDetector {
   semantic::PersonSegmenter segmenter_;
   Intrinsics intrinsics_;
   bool wait_for_result_;
+  int every_frames_;
   int max_age_frames_;
   tbb::task_group jobs_;
   std::atomic<bool> running_{false};

@@ -284,6 +284,19 @@ TEST(RunCommand, BadConfigNamesFileAndKey) {
   EXPECT_THAT(r.output, HasSubstr("config.json"));
 }
 
+TEST(RunCommand, SemanticConfigGroupIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  std::ofstream(dir / "config.json") << R"({"semantic": {"join_min_iou": 1.5}})";
+  const Result r = run_cofusion("run --headless --config " + (dir / "config.json").string() + " --output " +
+                                (dir / "out").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("config.json: semantic: confirm_frames must be >= 1")) << r.output;
+  std::ofstream(dir / "ok.json") << R"({"semantic": {"confirm_frames": 3, "join_min_iou": 0.5}})";
+  const Result ok = run_cofusion("run --headless --max-frames 3 --config " + (dir / "ok.json").string() + " --output " +
+                                 (dir / "out").string());
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 // --screenshot offscreen (headless) and from the window under a virtual X server: a PNG of the
 // final view, showing the model (not just the background colour).
 void expect_screenshot(const fs::path& png) {
@@ -337,6 +350,8 @@ TEST(BenchCommand, SemanticFiguresPerModeAndMaskSource) {
   const char* models = std::getenv("COFUSION_MODELS");
   if (models && fs::is_regular_file(fs::path(models) / "centernet.pb")) {
     EXPECT_THAT(r.output, HasSubstr("both      detector ")) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("both      detector 1/4 ")) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("ran on 2 of 6 frames")) << r.output;  // frames 0 and 4
     EXPECT_THAT(r.output, HasSubstr("ms per run, ran on ")) << r.output;
   }
 }
