@@ -20,6 +20,13 @@ struct FrameGateParams {
   // unusable and the run fails: 30 frames = 1 s of a 30 Hz camera. A wrong path, intrinsics of the
   // wrong size or a sensor that never delivers depth fails here instead of skipping to the end.
   int max_leading_bad_frames = 30;
+  // Skipped frames leave a gap in time. A gap longer than this (seconds of source time between the
+  // processed frames either side) is relocalised across, as after a tracking loss: the camera may
+  // have moved further than tracking from the last pose reaches (camera_loss: 31 cm in 1 s,
+  // which ICP converges on wrongly). A shorter one is tracked as usual: fr2/desk with 5 frames
+  // (0.17 s) skipped tracks within 0.1 mm of the intact run, while relocalisation on its young map
+  // is refused for the rest of the run.
+  double relocalise_after_gap_s = 0.5;
 };
 
 struct SkippedFrame {

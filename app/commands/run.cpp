@@ -173,6 +173,7 @@ int run(const RunOptions& o) {
   std::vector<int> recovered_frames;  // relocalised after a loss
   std::vector<std::string> events;
   FrameGate gate(*source, intrinsics, o.frame_gate);
+  size_t skipped_before = 0;  // gate.skipped() at the previous frame
   const StopSignals stop_signals;
   std::string stop_reason;  // why the run ended before its input did; empty when it did not
   std::exception_ptr fault;  // the error that ended the run after its first frame
@@ -251,6 +252,10 @@ int run(const RunOptions& o) {
         frame = gate.next();
       }
       if (!frame) break;
+      if (gate.skipped().size() > skipped_before && !timestamps.empty() &&
+          frame->timestamp_s - timestamps.back() > o.frame_gate.relocalise_after_gap_s)
+        slam.note_gap();  // a long gap: relocalise across it
+      skipped_before = gate.skipped().size();
       const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
       const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
       if (semantic_source.empty()) {

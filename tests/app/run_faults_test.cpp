@@ -140,6 +140,50 @@ TEST(RunFaults, ZeroDepthAndCorruptImagesAreSkippedAndTrackingGoesOn) {
   EXPECT_LT(ate.translation_m.rmse, 0.01);
 }
 
+// The case: fr2/desk with depth images 10-14 reading all zero (a covered sensor) completes
+// with those 5 frames skipped, and the camera ATE stays within 1 mm of the intact run's.
+TEST(RunFaults, Fr2DeskWithFiveZeroDepthFramesWithinOneMillimetreOfIntactSlow) {
+  const auto data = data_dir("tum_fr2_desk_50");
+  if (!data) GTEST_SKIP() << "TUM fr2/desk recording not found (set COFUSION_DATA)";
+  const fs::path copy = fresh_temp_dir() / "tum_fr2_desk_50";  // "fr2" in the name: the fr2 preset
+  fs::copy(*data, copy, fs::copy_options::recursive);
+  std::ifstream in(copy / "associations.txt");
+  std::vector<std::string> depth_files;
+  for (std::string t_rgb, rgb, t_depth, depth; in >> t_rgb >> rgb >> t_depth >> depth;) depth_files.push_back(depth);
+  ASSERT_EQ(depth_files.size(), 50u);
+  for (int i = 10; i <= 14; ++i) zero_depth(copy / depth_files[size_t(i)]);
+  const Trajectory gt = read_tum_trajectory(*data / "groundtruth.txt");
+  const auto ate_of = [&](const fs::path& input, const fs::path& out) {
+    const Result r = run_cofusion(kRun + "--input tum:" + input.string() + " --output " + out.string());
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return eval::compute_ate(gt, read_tum_trajectory(out / "trajectories" / "camera.txt")).translation_m.rmse;
+  };
+  const fs::path intact_out = fresh_temp_dir() / "intact", gap_out = fresh_temp_dir() / "gap";
+  const double intact = ate_of(*data, intact_out), gap = ate_of(copy, gap_out);
+  RecordProperty("camera_ate_intact_m", std::to_string(intact));
+  RecordProperty("camera_ate_gap_m", std::to_string(gap));
+  const auto summary = read_json(gap_out / "summary.json");
+  EXPECT_TRUE(summary["complete"].get<bool>());
+  ASSERT_EQ(summary["skipped_frames"].size(), 5u) << summary["skipped_frames"].dump();
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(summary["skipped_frames"][size_t(k)]["frame"].get<int>(), 10 + k);
+  expect_outputs_of(gap_out, 45);
+  EXPECT_LE(std::abs(gap - intact), 0.001) << "intact " << intact << " m, with the gap " << gap << " m";
+}
+
+// camera_loss covers the lens (no depth) in frames 30-59 while the camera moves 31 cm: those frames
+// are skipped, and the long gap is relocalised across at frame 60 instead of tracked from the last
+// pose (which converges on a wrong pose).
+TEST(RunFaults, LongGapIsRelocalisedAcross) {
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--input synthetic:camera_loss --max-frames 62 --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto summary = read_json(out / "summary.json");
+  ASSERT_EQ(summary["skipped_frames"].size(), 30u);
+  EXPECT_EQ(summary["skipped_frames"][0]["frame"].get<int>(), 30);
+  EXPECT_EQ(summary["camera"]["recovered_at"], nlohmann::json::array({60})) << summary["camera"].dump();
+  expect_outputs_of(out, 32);
+}
+
 TEST(RunFaults, StrictFailsAtTheFirstBadFrameLeavingNoOutput) {
   const TumCopy tum = generate_tum(4);
   fs::remove(tum.depth[2]);
