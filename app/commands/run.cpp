@@ -1,5 +1,6 @@
 // `cofusion run`: the main job. Reads frames from a source, processes them on the Vulkan device
 // and writes the results under --output.
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -9,12 +10,15 @@
 
 #include "commands/commands.h"
 #include "commands/config.h"
+#include "commands/frame_gate.h"
 #include "commands/gpu_options.h"
 #include "commands/semantic_source.h"
 #include "commands/sources.h"
 #include "commands/stage_timer.h"
+#include "commands/stop_signals.h"
 #include "io/atomic_file.h"
 #include "io/instance_classes.h"
+#include "io/output_folder.h"
 #include "export/model_export.h"
 #include "io/trajectory.h"
 #include "renderer/overlay.h"
@@ -30,6 +34,7 @@ struct RunOptions {
   std::string output = "./cofusion-out";
   bool headless = false;
   std::optional<int> max_frames;
+  FrameGateParams frame_gate;  // --strict
   std::string config_file;
   bool save_segmentation = false;
   std::string intrinsics;
@@ -78,20 +83,6 @@ renderer::VirtualCamera overview_camera(const Intrinsics& intrinsics, const Pose
   return camera;
 }
 
-// A frame with no usable depth cannot be tracked or fused: reject it with its index and time.
-// The first frame starts the map and needs depth; a later frame without any (a covered lens, a
-// dropped sensor frame) is a frame the camera is lost in (CoFusion relocalises after it).
-void check_frame(const Frame& frame, const Intrinsics& intrinsics, bool first) {
-  if (frame.depth_m.cols != intrinsics.width || frame.depth_m.rows != intrinsics.height)
-    throw Error("frame " + std::to_string(frame.index) + ": depth is " + std::to_string(frame.depth_m.cols) + "x" +
-                std::to_string(frame.depth_m.rows) + " but the intrinsics say " + std::to_string(intrinsics.width) + "x" +
-                std::to_string(intrinsics.height));
-  const int valid = cv::countNonZero(frame.depth_m > 0.0f);  // NaN compares false
-  if (valid == 0 && first)
-    throw Error("frame " + std::to_string(frame.index) + " (t=" + std::to_string(frame.timestamp_s) +
-                "): no valid depth reading (all zero or NaN)");
-}
-
 // segmentation/classes.txt: the class of every model the run ended with, by the model id its label
 // images carry (models deleted or merged away before the end are not listed).
 void write_segmentation_classes(const fs::path& path, const std::vector<slam::ModelSnapshot>& snapshots) {
@@ -115,8 +106,9 @@ std::vector<std::string> split_list(const std::string& text) {
   return out;
 }
 
-void run(const RunOptions& o) {
-  if (handle_list_devices(o.gpu)) return;
+// The exit status: 0, or 128 + the signal that stopped the run (its outputs written).
+int run(const RunOptions& o) {
+  if (handle_list_devices(o.gpu)) return 0;
   const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
   slam::CoFusionParams params = config.cofusion();
   {
@@ -140,9 +132,9 @@ void run(const RunOptions& o) {
   const Intrinsics intrinsics = source->intrinsics();
   if (!intrinsics.plausible()) throw Error("input " + o.input + ": implausible intrinsics " + intrinsics.to_string());
   const fs::path out_dir = o.output;
-  ensure_writable_directory(out_dir);
-  ensure_writable_directory(out_dir / "trajectories");
-  if (o.save_segmentation) ensure_writable_directory(out_dir / "segmentation");
+  // Taken away again unless the first frame is processed: a failed start leaves nothing behind.
+  OutputFolder output_folder(out_dir, o.save_segmentation ? std::vector<std::string>{"trajectories", "segmentation"}
+                                                          : std::vector<std::string>{"trajectories"});
   if (!o.screenshot.empty()) {
     const fs::path parent = fs::path(o.screenshot).parent_path();
     ensure_writable_directory(parent.empty() ? fs::path(".") : parent);
@@ -175,6 +167,11 @@ void run(const RunOptions& o) {
   std::vector<int> failed_frames;     // lost: camera tracking failed or not yet relocalised
   std::vector<int> recovered_frames;  // relocalised after a loss
   std::vector<std::string> events;
+  FrameGate gate(*source, intrinsics, o.frame_gate);
+  size_t skipped_before = 0;  // gate.skipped() at the previous frame
+  const StopSignals stop_signals;
+  std::string stop_reason;  // why the run ended before its input did; empty when it did not
+  std::exception_ptr fault;  // the error that ended the run after its first frame
   const auto start = std::chrono::steady_clock::now();
   int frames = 0;
   const bool tty = ::isatty(STDOUT_FILENO);
@@ -228,144 +225,194 @@ void run(const RunOptions& o) {
     overlay.boxes = boxes(clouds(true));
     viewer->frame(slam.stream(), *view_renderer, views, overlay, status);
   };
-  while (true) {
-    if (viewer) {
-      // Space pauses, N runs one frame, Q quits; the window stays live while paused.
-      while (viewer->state().paused && !viewer->state().step_requested && !viewer->state().quit_requested &&
-             viewer->poll())
+  try {
+    while (true) {
+      if (const int signal = stop_signals.requested()) {
+        stop_reason = StopSignals::name(signal);
+        std::printf("%s%s: stopping after %d frames; writing their outputs (a second %s ends at once)\n",
+                    tty ? "\n" : "", stop_reason.c_str(), frames, stop_reason.c_str());
+        break;
+      }
+      if (viewer) {
+        // Space pauses, N runs one frame, Q quits; the window stays live while paused.
+        while (viewer->state().paused && !viewer->state().step_requested && !viewer->state().quit_requested &&
+               viewer->poll())
+          show();
+        if (viewer->state().quit_requested || !viewer->poll()) break;
+        viewer->state().step_requested = false;
+      }
+      std::optional<Frame> frame;
+      {
+        ScopedStage s(times, "read");
+        frame = gate.next();
+      }
+      if (!frame) break;
+      if (gate.skipped().size() > skipped_before && !timestamps.empty() &&
+          frame->timestamp_s - timestamps.back() > o.frame_gate.relocalise_after_gap_s)
+        slam.note_gap();  // a long gap: relocalise across it
+      skipped_before = gate.skipped().size();
+      const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
+      const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
+      if (semantic_source.empty()) {
+        if (!frame->mask.empty()) {
+          semantic_source = "masks";
+        } else if (std::error_code ec; fs::is_regular_file(default_models_dir() / "centernet.pb", ec)) {
+          semantic_source = "detector";
+        } else {
+          semantic_source = "none";
+          std::printf("no instance masks: the input has none and the detector's models are not in %s (run "
+                      ".ci/fetch-models.sh or set COFUSION_MODELS); no class is excluded\n",
+                      default_models_dir().c_str());
+        }
+        if (semantic_source != "none" && !config.motion_segmentation) {
+          semantic_source = "none";
+          std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
+        }
+        if (semantic_source != "none") std::printf("instance masks: %s\n", semantic_source.c_str());
+        if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
+      }
+      if (semantic_source == "masks" && frame->mask.empty())
+        throw Error("frame " + std::to_string(frame->index) + " has no instance mask (--semantic-source masks)");
+      if (semantic_source == "detector" && !detector)
+        detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
+      const slam::SemanticFrame* semantic = nullptr;
+      if (semantic_source == "masks") {
+        frame_masks = semantic_frame_from_masks(*frame);
+        semantic = frame_masks ? &*frame_masks : nullptr;
+      } else if (detector) {
+        // The detection made from the previous frame, then a detection of this frame starts (when
+        // none is running); on a recording the next frame waits for it, a live camera never does.
+        semantic = detector->for_frame(frame->index);
+        detector->submit(frame->index, rgb, depth);
+      }
+      slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data, semantic);
+      for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
+      if (r.frame > 0 && config.motion_segmentation) {
+        times.add("superpixels (CPU)", r.superpixels_ms);
+        times.add("superpixels overlapped with GPU", r.superpixels_overlap_ms);
+      }
+      camera.push_back({frame->timestamp_s, r.T_world_camera});
+      timestamps.push_back(frame->timestamp_s);
+      ++frames;  // processed: its pose is in the trajectory
+      output_folder.keep();  // from the first processed frame on, the run has output to write
+      T_world_camera_last = r.T_world_camera;
+      if (r.camera_state == slam::CameraState::kLost) {
+        failed_frames.push_back(frame->index);
+        std::printf("%sframe %d: camera lost (%s); pose not updated, frame not fused\n", tty ? "\n" : "", frame->index,
+                    r.camera_tracking.failure_reason.c_str());
+      } else if (r.camera_state == slam::CameraState::kRecovered) {
+        recovered_frames.push_back(frame->index);
+      }
+      for (const auto& e : r.events) {
+        std::printf("%s%s\n", tty ? "\n" : "", e.c_str());
+        events.push_back(e);
+      }
+      if (o.save_segmentation) {
+        // Model id per pixel (0 = background), 65535 = no model (no depth or unassigned).
+        cv::Mat labels(depth.rows, depth.cols, CV_16UC1, r.labels.data());
+        // Named by the frame's timestamp (6 decimals, as in the trajectories), which is how TUM
+        // folders and generated scenes name their images and masks: `eval seg` pairs them by name.
+        char name[64];
+        std::snprintf(name, sizeof name, "%.6f.png", frame->timestamp_s);
+        write_atomically(out_dir / "segmentation" / name, [&](const fs::path& tmp) {
+          if (!cv::imwrite(tmp.string() + ".png", labels)) throw Error("PNG encoding failed");
+          fs::rename(tmp.string() + ".png", tmp);
+        });
+      }
+      unsigned surfels = 0;
+      for (const auto& m : r.active) surfels += m.surfels;
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::printf("%sframe %d  %.1f fps  models %zu  surfels %u  camera inliers %.0f%%%s", tty ? "\r" : "",
+                  frames, frames / elapsed, r.active.size(), surfels, 100.0 * r.camera_tracking.inlier_ratio,
+                  tty ? "   " : "\n");
+      std::fflush(stdout);
+      if (viewer || !o.screenshot.empty()) {
+        last_frame = *frame;
+        last_labels = std::move(r.labels);
+      }
+      if (viewer) {
+        char line[160];
+        std::snprintf(line, sizeof line, "frame %d  %.1f fps  models %zu  surfels %u  camera %s", frames,
+                      frames / elapsed, r.active.size(), surfels, slam::to_string(r.camera_state));
+        status = line;
         show();
-      if (viewer->state().quit_requested || !viewer->poll()) break;
-      viewer->state().step_requested = false;
-    }
-    std::optional<Frame> frame;
-    {
-      ScopedStage s(times, "read");
-      frame = source->next();
-    }
-    if (!frame) break;
-    check_frame(*frame, intrinsics, frames == 0);
-    const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
-    const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
-    if (semantic_source.empty()) {
-      if (!frame->mask.empty()) {
-        semantic_source = "masks";
-      } else if (std::error_code ec; fs::is_regular_file(default_models_dir() / "centernet.pb", ec)) {
-        semantic_source = "detector";
-      } else {
-        semantic_source = "none";
-        std::printf("no instance masks: the input has none and the detector's models are not in %s (run "
-                    ".ci/fetch-models.sh or set COFUSION_MODELS); no class is excluded\n",
-                    default_models_dir().c_str());
       }
-      if (semantic_source != "none" && !config.motion_segmentation) {
-        semantic_source = "none";
-        std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
-      }
-      if (semantic_source != "none") std::printf("instance masks: %s\n", semantic_source.c_str());
-      if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
     }
-    if (semantic_source == "masks" && frame->mask.empty())
-      throw Error("frame " + std::to_string(frame->index) + " has no instance mask (--semantic-source masks)");
-    if (semantic_source == "detector" && !detector) detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
-    const slam::SemanticFrame* semantic = nullptr;
-    if (semantic_source == "masks") {
-      frame_masks = semantic_frame_from_masks(*frame);
-      semantic = frame_masks ? &*frame_masks : nullptr;
-    } else if (detector) {
-      // The latest finished detection if it was made from the previous frame, then a detection of
-      // this frame starts (when none is running); the pipeline does not wait for it.
-      semantic = detector->for_frame(frame->index);
-      detector->submit(frame->index, rgb, depth);
-    }
-    slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data, semantic);
-    for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
-    if (r.frame > 0 && config.motion_segmentation) {
-      times.add("superpixels (CPU)", r.superpixels_ms);
-      times.add("superpixels overlapped with GPU", r.superpixels_overlap_ms);
-    }
-    camera.push_back({frame->timestamp_s, r.T_world_camera});
-    timestamps.push_back(frame->timestamp_s);
-    T_world_camera_last = r.T_world_camera;
-    if (r.camera_state == slam::CameraState::kLost) {
-      failed_frames.push_back(frame->index);
-      std::printf("%sframe %d: camera lost (%s); pose not updated, frame not fused\n", tty ? "\n" : "", frame->index,
-                  r.camera_tracking.failure_reason.c_str());
-    } else if (r.camera_state == slam::CameraState::kRecovered) {
-      recovered_frames.push_back(frame->index);
-    }
-    for (const auto& e : r.events) {
-      std::printf("%s%s\n", tty ? "\n" : "", e.c_str());
-      events.push_back(e);
-    }
-    if (o.save_segmentation) {
-      // Model id per pixel (0 = background), 65535 = no model (no depth or unassigned).
-      cv::Mat labels(depth.rows, depth.cols, CV_16UC1, r.labels.data());
-      // Named by the frame's timestamp (6 decimals, as in the trajectories), which is how TUM
-      // folders and generated scenes name their images and masks: `eval seg` pairs them by name.
-      char name[64];
-      std::snprintf(name, sizeof name, "%.6f.png", frame->timestamp_s);
-      write_atomically(out_dir / "segmentation" / name, [&](const fs::path& tmp) {
-        if (!cv::imwrite(tmp.string() + ".png", labels)) throw Error("PNG encoding failed");
-        fs::rename(tmp.string() + ".png", tmp);
-      });
-    }
-    ++frames;
-    unsigned surfels = 0;
-    for (const auto& m : r.active) surfels += m.surfels;
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf("%sframe %d  %.1f fps  models %zu  surfels %u  camera inliers %.0f%%%s", tty ? "\r" : "", frames,
-                frames / elapsed, r.active.size(), surfels, 100.0 * r.camera_tracking.inlier_ratio, tty ? "   " : "\n");
-    std::fflush(stdout);
-    if (viewer || !o.screenshot.empty()) {
-      last_frame = *frame;
-      last_labels = std::move(r.labels);
-    }
-    if (viewer) {
-      char line[160];
-      std::snprintf(line, sizeof line, "frame %d  %.1f fps  models %zu  surfels %u  camera %s", frames,
-                    frames / elapsed, r.active.size(), surfels, slam::to_string(r.camera_state));
-      status = line;
-      show();
-    }
+  } catch (const std::exception& e) {
+    if (frames == 0) throw;  // nothing to keep
+    fault = std::current_exception();
+    stop_reason = std::string("error: ") + e.what();
+    std::fprintf(stderr, "%serror after %d frames: %s\nwriting the outputs of those frames\n", tty ? "\n" : "", frames,
+                 e.what());
   }
   if (tty) std::printf("\n");
+  if (frames == 0 && !stop_reason.empty()) throw Error(stop_reason + " before the first frame; nothing written");
   if (frames == 0) throw Error("input " + o.input + " has no frames");
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (ctx.validation_error_count() > 0)
+  if (!fault && ctx.validation_error_count() > 0)
     throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors (see above)");
+  // After a fault each output is attempted on its own (the device may be lost, the disk full):
+  // what can be written is, and the failures are listed in summary.json.
+  std::vector<std::string> output_errors;
+  const auto attempt = [&](const char* what, const auto& write) {
+    if (!fault) return write();
+    try {
+      write();
+    } catch (const std::exception& e) {
+      output_errors.push_back(std::string(what) + ": " + e.what());
+      std::fprintf(stderr, "cannot write %s: %s\n", what, e.what());
+    }
+  };
 
-  write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera);
+  attempt("trajectories/camera.txt", [&] { write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera); });
   const std::vector<slam::ModelSnapshot> snapshots = slam.models();
-  for (const auto& m : snapshots) {
-    if (m.id == 0) continue;
-    Trajectory trajectory;
-    for (const auto& [frame_index, T_world_model] : m.trajectory)
-      trajectory.push_back({timestamps.at(static_cast<size_t>(frame_index)), T_world_model});
-    write_tum_trajectory(out_dir / "trajectories" / ("model-" + std::to_string(m.id) + ".txt"), trajectory);
-  }
-  if (o.save_segmentation) write_segmentation_classes(out_dir / "segmentation" / kInstanceClassesFile, snapshots);
-  const std::vector<SurfelCloud> all_models = clouds(false);
-  write_models(all_models, camera, out_dir);
+  attempt("the model trajectories", [&] {
+    for (const auto& m : snapshots) {
+      if (m.id == 0) continue;
+      Trajectory trajectory;
+      for (const auto& [frame_index, T_world_model] : m.trajectory)
+        trajectory.push_back({timestamps.at(static_cast<size_t>(frame_index)), T_world_model});
+      write_tum_trajectory(out_dir / "trajectories" / ("model-" + std::to_string(m.id) + ".txt"), trajectory);
+    }
+  });
+  if (o.save_segmentation)
+    attempt("segmentation/classes.txt",
+            [&] { write_segmentation_classes(out_dir / "segmentation" / kInstanceClassesFile, snapshots); });
+  std::vector<SurfelCloud> all_models;  // stays empty when the device cannot hand the models back
+  attempt("the models", [&] {
+    all_models = clouds(false);
+    write_models(all_models, camera, out_dir);
+  });
   size_t total_surfels = 0;
   for (const auto& cloud : all_models) total_surfels += cloud.surfels.size();
-  if (!o.screenshot.empty()) {
-    const auto views = model_views();
-    const renderer::VirtualCamera view =
-        viewer ? viewer->camera(T_world_camera_last) : overview_camera(intrinsics, T_world_camera_last);
-    renderer::Image image = view_renderer->render(slam.stream(), views, view, renderer::RenderParams{});
-    char line[160];
-    std::snprintf(line, sizeof line, "frame %d  models %zu  surfels %zu", frames, views.size(), total_surfels);
-    renderer::Overlay overlay = make_overlay({line});
-    overlay.boxes = boxes(clouds(true));
-    renderer::draw_overlay(image, view, overlay);
-    renderer::write_png(image, o.screenshot);
-  }
+  if (!o.screenshot.empty())
+    attempt("the screenshot", [&] {
+      const auto views = model_views();
+      const renderer::VirtualCamera view =
+          viewer ? viewer->camera(T_world_camera_last) : overview_camera(intrinsics, T_world_camera_last);
+      renderer::Image image = view_renderer->render(slam.stream(), views, view, renderer::RenderParams{});
+      char line[160];
+      std::snprintf(line, sizeof line, "frame %d  models %zu  surfels %zu", frames, views.size(), total_surfels);
+      renderer::Overlay overlay = make_overlay({line});
+      overlay.boxes = boxes(clouds(true));
+      renderer::draw_overlay(image, view, overlay);
+      renderer::write_png(image, o.screenshot);
+    });
 
   nlohmann::ordered_json summary;
   summary["frames"] = frames;
+  // false when a signal or an error ended the run before its input did (stop_reason says which);
+  // the outputs then cover the frames processed.
+  summary["complete"] = stop_reason.empty();
+  if (!stop_reason.empty()) summary["stop_reason"] = stop_reason;
   summary["fps"] = frames / seconds;
   summary["device"] = ctx.description();
   summary["input"] = source->describe();
+  summary["skipped_frames"] = nlohmann::json::array();
+  for (const auto& skipped : gate.skipped())
+    summary["skipped_frames"].push_back({{"frame", skipped.frame}, {"reason", skipped.reason}});
+  summary["dropped_frames"] = source->dropped_frames();
+  if (!output_errors.empty()) summary["output_errors"] = output_errors;
   for (const auto& stage : times.stages()) summary["stages_ms"][stage] = times.mean(stage);
   summary["tracking_failures"] = failed_frames;
   summary["camera"] = {{"lost_frames", failed_frames.size()}, {"recoveries", recovered_frames.size()},
@@ -375,7 +422,7 @@ void run(const RunOptions& o) {
     const auto& m = snapshots[k];
     summary["models"].push_back({{"id", m.id},
                                  {"state", slam::to_string(m.state)},
-                                 {"surfels", all_models[k].surfels.size()},
+                                 {"surfels", k < all_models.size() ? all_models[k].surfels.size() : 0},
                                  {"first_frame", m.first_frame},
                                  {"last_frame", m.last_frame},
                                  {"class", m.class_name}, {"class_confidence", m.class_confidence}});
@@ -390,8 +437,27 @@ void run(const RunOptions& o) {
                                        {"frames_with_masks", detector->results_used()},
                                        {"mean_ms", detector->mean_detection_ms()}};
   write_text_atomically(out_dir / "summary.json", summary.dump(2) + "\n");
-  std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures; wrote %s\n", frames,
-              seconds, frames / seconds, snapshots.size(), total_surfels, failed_frames.size(), out_dir.c_str());
+  std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures, %zu frames skipped; "
+              "wrote %s%s\n",
+              frames, seconds, frames / seconds, snapshots.size(), total_surfels, failed_frames.size(),
+              gate.skipped().size(), out_dir.c_str(), stop_reason.empty() ? "" : " (incomplete)");
+  if (fault) std::rethrow_exception(fault);
+  // Stopped by a signal: the shell's convention for it, 128 + the signal number.
+  return stop_signals.requested() ? 128 + stop_signals.requested() : 0;
+}
+
+// --max-frames: a whole number >= 1, said in one line (CLI11's PositiveNumber prints its range
+// with a 300-digit maximum).
+CLI::Validator frame_count_check() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        int n = 0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+        if (ec != std::errc() || end != text.data() + text.size() || n < 1)
+          return "must be a whole number of frames, 1 or more (got '" + text + "')";
+        return "";
+      },
+      "N>=1");
 }
 
 }  // namespace
@@ -404,7 +470,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--output", o->output, "Output folder (default ./cofusion-out)");
   cmd->add_flag("--headless", o->headless, "Run without a window (the viewer needs a display)");
   cmd->add_option("--screenshot", o->screenshot, "Write the final view as PNG (from the window, or offscreen)");
-  cmd->add_option("--max-frames", o->max_frames, "Stop after N frames")->check(CLI::PositiveNumber);
+  cmd->add_option("--max-frames", o->max_frames, "Stop after N frames (bad frames count)")->check(frame_count_check());
+  cmd->add_flag("--strict", o->frame_gate.strict,
+                "Fail at the first bad frame (default: skip it with a warning; summary.json lists it)");
   cmd->add_option("--config", o->config_file, "JSON file of pipeline parameters")->check(CLI::ExistingFile);
   cmd->add_flag("--save-segmentation", o->save_segmentation, "Write per-frame label images to segmentation/");
   cmd->add_option("--intrinsics", o->intrinsics, "fx,fy,cx,cy | calibration file | preset (fr1, fr2, fr3, primesense)");
@@ -427,7 +495,10 @@ void add_run(CLI::App& app) {
       ->check(CLI::Range(1, 1000));
   cmd->add_option("--classes", o->classes, "Comma-separated classes that become models in semantic/both modes (default all)");
   o->gpu.add_to(*cmd);
-  cmd->callback([o] { run(*o); });
+  cmd->callback([o] {
+    // CLI11 turns RuntimeError into the exit status without printing anything.
+    if (const int status = run(*o)) throw CLI::RuntimeError(status);
+  });
 }
 
 }  // namespace cofusion::commands

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "common/error.h"
 #include "common/intrinsics.h"
 #include "io/instance_classes.h"
 
@@ -29,15 +30,48 @@ struct Frame {
   std::optional<Pose> T_world_camera_gt;  // ground truth when the source has it
 };
 
+// One frame a source could not read: an image that is missing, cannot be decoded or has the wrong
+// size, a damaged block of a log. The source has moved past it, so next() may be called again and
+// continues with the following frame; a caller that cannot use a gap treats it as any Error.
+class BadFrame : public Error {
+ public:
+  BadFrame(int frame_index, const std::string& reason)
+      : Error("frame " + std::to_string(frame_index) + ": " + reason), frame_index_(frame_index), reason_(reason) {}
+  int frame_index() const { return frame_index_; }
+  const std::string& reason() const { return reason_; }  // names the file or block
+
+ private:
+  int frame_index_;
+  std::string reason_;
+};
+
+// Runs read() for frame `frame_index`, turning the cofusion::Error or OpenCV exception it throws
+// into BadFrame: for sources whose frames are independent files or blocks.
+template <class Read>
+Frame read_or_bad_frame(int frame_index, Read&& read) {
+  try {
+    return read();
+  } catch (const BadFrame&) {
+    throw;
+  } catch (const Error& e) {
+    throw BadFrame(frame_index, e.what());
+  } catch (const cv::Exception& e) {
+    throw BadFrame(frame_index, e.what());
+  }
+}
+
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
-  // Next frame, or std::nullopt at the end. Throws cofusion::Error naming the file or frame on bad
-  // input (missing/corrupt files, size mismatches).
+  // Next frame, or std::nullopt at the end. Throws BadFrame for one unreadable frame (the source
+  // has passed it), cofusion::Error naming the file or device for a fault that ends the source.
   virtual std::optional<Frame> next() = 0;
   virtual Intrinsics intrinsics() const = 0;
   // Number of frames when known in advance.
   virtual std::optional<int> size() const { return std::nullopt; }
+  // Live sources: frames the device delivered that were dropped because the reader was busy (the
+  // newest frame wins). Recordings drop none.
+  virtual long dropped_frames() const { return 0; }
   // One line for the terminal, e.g. "tum:/data/fr2_desk (50 frames, fr2 intrinsics)".
   virtual std::string describe() const = 0;
 };

@@ -139,22 +139,26 @@ ImageFolderSource::ImageFolderSource(fs::path folder, ImageFolderSourceOptions o
 
 std::optional<Frame> ImageFolderSource::next() {
   if (next_ >= rgb_files_.size()) return std::nullopt;
+  const std::size_t i = next_++;  // past this frame even when it is bad
+  return read_or_bad_frame(static_cast<int>(i), [&] { return read_frame(i); });
+}
+
+Frame ImageFolderSource::read_frame(std::size_t i) const {
   const Intrinsics& k = intrinsics_.intrinsics;
   Frame frame;
-  frame.index = static_cast<int>(next_);
-  frame.timestamp_s = timestamps_s_[next_];
+  frame.index = static_cast<int>(i);
+  frame.timestamp_s = timestamps_s_[i];
   frame.intrinsics = k;
-  frame.rgb = read_rgb_image(rgb_files_[next_]);
-  require_image_size(frame.rgb, k.width, k.height, "colour image " + rgb_files_[next_].string());
-  frame.depth_m = read_depth_image(depth_files_[next_], options_.depth_units_per_metre);
-  require_image_size(frame.depth_m, k.width, k.height, "depth image " + depth_files_[next_].string());
+  frame.rgb = read_rgb_image(rgb_files_[i]);
+  require_image_size(frame.rgb, k.width, k.height, "colour image " + rgb_files_[i].string());
+  frame.depth_m = read_depth_image(depth_files_[i], options_.depth_units_per_metre);
+  require_image_size(frame.depth_m, k.width, k.height, "depth image " + depth_files_[i].string());
   if (!mask_files_.empty()) {
-    frame.mask = read_mask_image(mask_files_[next_]);
-    require_image_size(frame.mask, k.width, k.height, "mask image " + mask_files_[next_].string());
-    if (mask_classes_) require_mask_ids_classified(frame.mask, *mask_classes_, mask_files_[next_]);
+    frame.mask = read_mask_image(mask_files_[i]);
+    require_image_size(frame.mask, k.width, k.height, "mask image " + mask_files_[i].string());
+    if (mask_classes_) require_mask_ids_classified(frame.mask, *mask_classes_, mask_files_[i]);
     frame.mask_classes = mask_classes_;
   }
-  ++next_;
   return frame;
 }
 

@@ -40,6 +40,8 @@ class ImageFolderSource : public FrameSource {
   std::string describe() const override;
 
  private:
+  Frame read_frame(std::size_t i) const;
+
   std::filesystem::path folder_;
   ImageFolderSourceOptions options_;
   IntrinsicsChoice intrinsics_;

@@ -86,13 +86,18 @@ std::string KlgSource::where(std::size_t frame) const {
 
 std::optional<Frame> KlgSource::next() {
   if (next_ >= entries_.size()) return std::nullopt;
-  const Entry& e = entries_[next_];
+  const std::size_t i = next_++;  // past this frame even when it is bad
+  return read_or_bad_frame(static_cast<int>(i), [&] { return read_frame(i); });
+}
+
+Frame KlgSource::read_frame(std::size_t i) {
+  const Entry& e = entries_[i];
   const int w = intrinsics_.intrinsics.width;
   const int h = intrinsics_.intrinsics.height;
   const std::size_t depth_raw = 2ull * w * h;
 
   Frame frame;
-  frame.index = static_cast<int>(next_);
+  frame.index = static_cast<int>(i);
   frame.timestamp_s = static_cast<double>(e.timestamp_us) * 1e-6;
   frame.intrinsics = intrinsics_.intrinsics;
 
@@ -100,7 +105,7 @@ std::optional<Frame> KlgSource::next() {
   in_.seekg(static_cast<std::streamoff>(e.data_offset));
   buffer_.resize(static_cast<std::size_t>(e.depth_size) + static_cast<std::size_t>(e.rgb_size));
   if (!in_.read(reinterpret_cast<char*>(buffer_.data()), static_cast<std::streamsize>(buffer_.size())))
-    throw Error(where(next_) + ": read failed (file changed or truncated while reading)");
+    throw Error(where(i) + ": read failed (file changed or truncated while reading)");
 
   cv::Mat depth_mm(h, w, CV_16UC1);
   if (static_cast<std::size_t>(e.depth_size) == depth_raw) {
@@ -109,11 +114,11 @@ std::optional<Frame> KlgSource::next() {
     uLongf out_size = static_cast<uLongf>(depth_raw);
     const int rc = uncompress(depth_mm.data, &out_size, buffer_.data(), static_cast<uLong>(e.depth_size));
     if (rc == Z_BUF_ERROR)
-      throw Error(where(next_) + ": depth block decompresses to more than " + std::to_string(depth_raw) + " bytes (" +
+      throw Error(where(i) + ": depth block decompresses to more than " + std::to_string(depth_raw) + " bytes (" +
                   std::to_string(w) + "x" + std::to_string(h) + "x2); wrong image size in the intrinsics?");
-    if (rc != Z_OK) throw Error(where(next_) + ": depth block is not valid zlib data (zlib error " + std::to_string(rc) + ")");
+    if (rc != Z_OK) throw Error(where(i) + ": depth block is not valid zlib data (zlib error " + std::to_string(rc) + ")");
     if (out_size != depth_raw)
-      throw Error(where(next_) + ": depth block decompresses to " + std::to_string(out_size) + " bytes, expected " +
+      throw Error(where(i) + ": depth block decompresses to " + std::to_string(out_size) + " bytes, expected " +
                   std::to_string(depth_raw) + " (" + std::to_string(w) + "x" + std::to_string(h) +
                   "x2); wrong image size in the intrinsics?");
   }
@@ -134,12 +139,11 @@ std::optional<Frame> KlgSource::next() {
       bgr.release();
     }
     if (bgr.empty())
-      throw Error(where(next_) + ": colour block (" + std::to_string(e.rgb_size) + " bytes) is neither raw " +
+      throw Error(where(i) + ": colour block (" + std::to_string(e.rgb_size) + " bytes) is neither raw " +
                   std::to_string(w) + "x" + std::to_string(h) + " RGB nor a decodable JPEG");
-    require_image_size(bgr, w, h, where(next_) + " colour JPEG");
+    require_image_size(bgr, w, h, where(i) + " colour JPEG");
     cv::cvtColor(bgr, frame.rgb, cv::COLOR_BGR2RGB);
   }
-  ++next_;
   return frame;
 }
 

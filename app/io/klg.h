@@ -26,7 +26,8 @@ struct KlgSourceOptions {
 class KlgSource : public FrameSource {
  public:
   // Reads the frame count and walks the frame headers, so a truncated or inconsistent log fails
-  // here with the frame index. Throws cofusion::Error naming the file.
+  // here with the frame index. Throws cofusion::Error naming the file. A block that does not
+  // decode is a BadFrame from next().
   explicit KlgSource(std::filesystem::path path, KlgSourceOptions options = {});
 
   std::optional<Frame> next() override;
@@ -42,6 +43,7 @@ class KlgSource : public FrameSource {
     std::uint64_t data_offset = 0;  // first byte of the depth block
   };
   std::string where(std::size_t frame) const;
+  Frame read_frame(std::size_t i);
 
   std::filesystem::path path_;
   IntrinsicsChoice intrinsics_;

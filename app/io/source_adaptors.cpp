@@ -15,9 +15,14 @@ LimitedSource::LimitedSource(std::unique_ptr<FrameSource> inner, int max_frames)
 
 std::optional<Frame> LimitedSource::next() {
   if (delivered_ >= max_frames_) return std::nullopt;
-  auto frame = inner_->next();
-  if (frame) ++delivered_;
-  return frame;
+  try {
+    auto frame = inner_->next();
+    if (frame) ++delivered_;
+    return frame;
+  } catch (const BadFrame&) {
+    ++delivered_;  // a bad frame counts: --max-frames N covers the source's first N frames
+    throw;
+  }
 }
 
 std::optional<int> LimitedSource::size() const {

@@ -9,7 +9,8 @@
 
 namespace cofusion {
 
-// Yields at most `max_frames` frames of `inner` (max_frames >= 0); never reads past the limit.
+// Yields at most `max_frames` frames of `inner` (max_frames >= 0), bad frames included; never reads
+// past the limit.
 class LimitedSource : public FrameSource {
  public:
   LimitedSource(std::unique_ptr<FrameSource> inner, int max_frames);
@@ -17,6 +18,7 @@ class LimitedSource : public FrameSource {
   std::optional<Frame> next() override;
   Intrinsics intrinsics() const override { return inner_->intrinsics(); }
   std::optional<int> size() const override;
+  long dropped_frames() const override { return inner_->dropped_frames(); }
   std::string describe() const override;
 
  private:
@@ -35,6 +37,7 @@ class DepthCorrectedSource : public FrameSource {
   std::optional<Frame> next() override;
   Intrinsics intrinsics() const override { return inner_->intrinsics(); }
   std::optional<int> size() const override { return inner_->size(); }
+  long dropped_frames() const override { return inner_->dropped_frames(); }
   std::string describe() const override;
 
  private:

@@ -6,6 +6,7 @@
 #include "common/error.h"
 #include "io/image_folder_source.h"
 #include "io/klg.h"
+#include "io/live_source.h"
 #include "io/openni_source.h"
 #include "io/source_adaptors.h"
 #include "io/tum_source.h"
@@ -72,7 +73,10 @@ std::unique_ptr<FrameSource> open_recorded_source(const SourceSpec& spec, const 
   } else if (spec.scheme == "oni" || spec.scheme == "openni2") {
     OpenNiSourceOptions o;
     o.intrinsics = intrinsics;
-    source = spec.scheme == "oni" ? OpenNiSource::open_recording(spec.path, o) : OpenNiSource::open_device(spec.path, o);
+    if (spec.scheme == "oni")
+      source = OpenNiSource::open_recording(spec.path, o);
+    else  // a live device: the pipeline takes the newest frame, those arriving while it is busy are dropped
+      source = std::make_unique<LiveSource>(OpenNiSource::open_device(spec.path, o));
   } else {
     throw Error("input '" + spec.scheme + ":" + spec.path + "': '" + spec.scheme + "' is not a recorded source");
   }

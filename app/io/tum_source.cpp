@@ -138,14 +138,13 @@ TumSource::TumSource(fs::path folder, TumSourceOptions options) : folder_(std::m
   if (frames_.empty()) throw Error("TUM folder " + folder_.string() + " has no rgb/depth pairs (" + pairing_ + ")");
 
   has_masks_ = fs::is_directory(folder_ / "masks", ec);
-  for (const auto& f : frames_) {
-    for (const auto& file : {f.rgb.file, f.depth.file})
-      if (!fs::is_regular_file(folder_ / file, ec)) throw Error("TUM image " + (folder_ / file).string() + " does not exist");
-    if (has_masks_) {
-      const fs::path mask = mask_path_for(folder_, f.rgb.file);
-      if (!fs::is_regular_file(mask, ec)) throw Error("TUM mask " + mask.string() + " does not exist");
-    }
-  }
+  // A missing image is one bad frame (next() says which); none at all is the wrong folder.
+  const auto pair_exists = [&](const TumAssociation& f) {
+    return fs::is_regular_file(folder_ / f.rgb.file, ec) && fs::is_regular_file(folder_ / f.depth.file, ec);
+  };
+  if (std::none_of(frames_.begin(), frames_.end(), pair_exists))
+    throw Error("TUM folder " + folder_.string() + ": not one of its " + std::to_string(frames_.size()) +
+                " rgb/depth pairs exists (first: " + (folder_ / frames_.front().rgb.file).string() + ")");
   const fs::path classes = folder_ / "masks" / kInstanceClassesFile;
   if (has_masks_ && fs::is_regular_file(classes, ec))
     mask_classes_ = std::make_shared<const InstanceClasses>(read_instance_classes(classes));
@@ -191,10 +190,15 @@ TumSource::TumSource(fs::path folder, TumSourceOptions options) : folder_(std::m
 
 std::optional<Frame> TumSource::next() {
   if (next_ >= frames_.size()) return std::nullopt;
-  const TumAssociation& a = frames_[next_];
+  const std::size_t i = next_++;  // past this frame even when it is bad
+  return read_or_bad_frame(static_cast<int>(i), [&] { return read_frame(i); });
+}
+
+Frame TumSource::read_frame(std::size_t i) const {
+  const TumAssociation& a = frames_[i];
   const Intrinsics& k = intrinsics_.intrinsics;
   Frame frame;
-  frame.index = static_cast<int>(next_);
+  frame.index = static_cast<int>(i);
   frame.timestamp_s = a.rgb.timestamp_s;
   frame.intrinsics = k;
 
@@ -212,7 +216,6 @@ std::optional<Frame> TumSource::next() {
     frame.mask_classes = mask_classes_;
   }
   frame.T_world_camera_gt = pose_at(groundtruth_, frame.timestamp_s, options_.max_groundtruth_dt_s);
-  ++next_;
   return frame;
 }
 

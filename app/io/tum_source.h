@@ -50,8 +50,9 @@ std::vector<TumAssociation> associate_by_time(const std::vector<TimedFile>& rgb,
 
 class TumSource : public FrameSource {
  public:
-  // Reads the file lists and checks that every listed image exists; images load in next().
-  // Throws cofusion::Error naming the folder or file on bad input.
+  // Reads the file lists; images load in next(). Throws cofusion::Error naming the folder or file
+  // on bad input, and when not one listed rgb/depth pair exists (the wrong folder). A single
+  // missing, corrupt or wrongly sized image is a BadFrame from next().
   explicit TumSource(std::filesystem::path folder, TumSourceOptions options = {});
 
   std::optional<Frame> next() override;
@@ -64,6 +65,8 @@ class TumSource : public FrameSource {
   bool has_groundtruth() const { return !groundtruth_.empty(); }
 
  private:
+  Frame read_frame(std::size_t i) const;
+
   std::filesystem::path folder_;
   TumSourceOptions options_;
   IntrinsicsChoice intrinsics_;

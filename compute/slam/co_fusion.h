@@ -317,6 +317,12 @@ class CoFusion {
   // frame; see semantic_masks.h): pixels of excluded classes are mover pixels (no fusion, no
   // tracking, no spawning). Masks need motion_segmentation (the label map that keeps them out).
   CoFusionFrame process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic = nullptr);
+  // The input skipped frames since the last process() (unreadable, or without depth): the camera
+  // may have moved further than tracking from the last pose reaches, so the next frame is
+  // relocalised (from the last pose first, then the keyframes' PnP poses), as after a loss.
+  void note_gap() {
+    if (frame_ > 0) lost_ = true;
+  }
 
   // Active and inactive models (background first, then by id).
   std::vector<ModelSnapshot> models() const;

@@ -214,8 +214,8 @@ TEST(KlgSource, DecompressedSizeMismatchNamesTheFrame) {
   EXPECT_THAT(msg, HasSubstr("decompresses to 1200 bytes, expected 2400"));
 }
 
-TEST(KlgSource, CorruptJpegNamesTheFrame) {
-  const fs::path path = write_test_log(test::fresh_temp_dir(), 2);
+TEST(KlgSource, CorruptJpegIsABadFrameAndTheLogGoesOn) {
+  const fs::path path = write_test_log(test::fresh_temp_dir(), 3);
   // Overwrite the start of frame 1's JPEG (its SOI marker) with garbage.
   KlgSource probe = open_log(path);
   ASSERT_TRUE(probe.next());
@@ -237,9 +237,18 @@ TEST(KlgSource, CorruptJpegNamesTheFrame) {
   }
   KlgSource source = open_log(path);
   ASSERT_TRUE(source.next());
-  const std::string msg = error_of([&] { source.next(); });
-  EXPECT_THAT(msg, HasSubstr("frame 1"));
-  EXPECT_THAT(msg, HasSubstr("JPEG"));
+  try {
+    source.next();
+    ADD_FAILURE() << "the corrupt frame read without an error";
+  } catch (const BadFrame& e) {
+    EXPECT_EQ(e.frame_index(), 1);
+    EXPECT_THAT(e.reason(), HasSubstr("frame 1"));
+    EXPECT_THAT(e.reason(), HasSubstr("JPEG"));
+  }
+  const auto after = source.next();
+  ASSERT_TRUE(after);
+  EXPECT_EQ(after->index, 2);
+  EXPECT_FALSE(source.next());
 }
 
 TEST(KlgWriter, AtomicAndChecksFrames) {

@@ -160,8 +160,9 @@ TEST(TumSource, MasksFolderGivesMasks) {
   EXPECT_EQ(f->mask.at<std::uint16_t>(5, 5), 300);
   EXPECT_EQ(f->mask.at<std::uint16_t>(20, 20), 0);
 
+  // A missing mask is a bad frame (read past), found when the frame is read.
   fs::remove(fx.dir / "masks" / (stamp(fx.frames[1].timestamp_s) + ".png"));
-  EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(stamp(fx.frames[1].timestamp_s) + ".png"));
+  EXPECT_THAT(error_of([&] { source.next(); }), HasSubstr(stamp(fx.frames[1].timestamp_s) + ".png"));
 }
 
 // masks/<stamp>.png of frame `i` of the fixture.
@@ -219,7 +220,9 @@ TEST(TumSource, JpegColourImagesHavePngMasksOfTheSameStem) {
   }
   // A lossy mask beside the jpg is not taken: the .png is what must exist.
   fs::rename(mask_file(fx, 1), fs::path(mask_file(fx, 1)).replace_extension(".jpg"));
-  EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(mask_file(fx, 1).string()));
+  TumSource again(fx.dir);
+  ASSERT_TRUE(again.next());
+  EXPECT_THAT(error_of([&] { again.next(); }), HasSubstr(mask_file(fx, 1).string()));
 }
 
 TEST(TumSource, BadMasksAndClassTablesNameTheFile) {
@@ -266,9 +269,12 @@ TEST(TumSource, BadMasksAndClassTablesNameTheFile) {
   EXPECT_THAT(msg, HasSubstr(classes.string() + ":3"));
   EXPECT_THAT(msg, HasSubstr("'two'"));
 
-  // Count mismatch: a frame without its mask.
+  // A frame without its mask is a bad frame naming the mask.
+  fs::remove(classes);
   fs::remove(mask1);
-  EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(mask1.string()));
+  msg = second_frame_error();
+  EXPECT_THAT(msg, HasSubstr(mask1.string()));
+  EXPECT_THAT(msg, HasSubstr("does not exist"));
 }
 
 TEST(TumSource, IntrinsicsOptionAndDefaults) {
@@ -354,7 +360,11 @@ TEST(TumSource, BadInputNamesTheFile) {
     auto fx = write_tum_fixture(2, true);
     const fs::path depth1 = fx.dir / ("depth/" + stamp(fx.frames[1].timestamp_s + 0.005) + ".png");
     fs::remove(depth1);
-    EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr(depth1.string()));
+    {
+      TumSource s(fx.dir);
+      ASSERT_TRUE(s.next());
+      EXPECT_THAT(error_of([&] { s.next(); }), HasSubstr(depth1.string()));
+    }
     // Depth of the wrong size, then depth with 8 bits.
     test::write_png(depth1, cv::Mat(12, 16, CV_16UC1, cv::Scalar(5000)));
     TumSource s(fx.dir);
@@ -375,10 +385,41 @@ TEST(TumSource, BadInputNamesTheFile) {
     EXPECT_THAT(error_of([&] { TumSource s3(fx.dir); }), HasSubstr(rgb0.string()));
   }
   {
+    // Not one listed image exists: the wrong folder, said when it opens.
+    auto fx = write_tum_fixture(2, true);
+    fs::remove_all(fx.dir / "rgb");
+    EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr("not one of its 2 rgb/depth pairs"));
+  }
+  {
     auto fx = write_tum_fixture(1, true);
     test::write_text(fx.dir / "associations.txt", "");
     EXPECT_THAT(error_of([&] { TumSource s(fx.dir); }), HasSubstr("no rgb/depth pairs"));
   }
+}
+
+// A frame that cannot be read is a BadFrame naming the frame and the file; the source has moved
+// past it and the next call reads the frame after.
+TEST(TumSource, BadFrameIsSkippedAndReadingGoesOn) {
+  auto fx = write_tum_fixture(4, true);
+  const fs::path rgb1 = fx.dir / ("rgb/" + stamp(fx.frames[1].timestamp_s) + ".png");
+  const fs::path depth2 = fx.dir / ("depth/" + stamp(fx.frames[2].timestamp_s + 0.005) + ".png");
+  test::write_text(rgb1, "not a png");
+  fs::remove(depth2);
+  TumSource source(fx.dir);
+  ASSERT_EQ(source.next()->index, 0);
+  for (const auto& [index, file] : {std::pair{1, rgb1}, std::pair{2, depth2}}) {
+    try {
+      source.next();
+      ADD_FAILURE() << "frame " << index << " read without an error";
+    } catch (const BadFrame& e) {
+      EXPECT_EQ(e.frame_index(), index);
+      EXPECT_THAT(e.reason(), HasSubstr(file.string()));
+    }
+  }
+  const auto last = source.next();
+  ASSERT_TRUE(last);
+  EXPECT_EQ(last->index, 3);
+  EXPECT_FALSE(source.next());
 }
 
 // --- The real recordings -------------------------------------------------------------------

@@ -1,0 +1,290 @@
+// `cofusion run` on bad input and faults: bad frames are skipped and listed, a signal or an error
+// mid-run keeps the outputs of the frames processed, a run that fails before its first frame
+// leaves no output behind. Each case checks the message, the exit status and the outputs.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "eval/trajectory_metrics.h"
+#include "io/trajectory.h"
+#include "support/test_support.h"
+
+namespace cofusion::test {
+namespace {
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+struct Result {
+  int exit_code = -1;    // -1 when killed by a signal
+  int killed_by = 0;     // the signal that ended it, 0 when it exited
+  std::string output;    // stdout and stderr
+};
+
+// Runs `cofusion ARGS` through the shell; when `signal_after` is given, sends `signals` (one at a
+// time) once the output holds that text, each after the output holds the text that follows it.
+Result run_cofusion(const std::string& args, const std::vector<std::pair<std::string, int>>& signals = {}) {
+  int out[2];
+  if (::pipe(out) != 0) return {};
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::dup2(out[1], 1);
+    ::dup2(out[1], 2);
+    ::close(out[0]);
+    ::close(out[1]);
+    const std::string command = "exec " + cofusion_exe().string() + " " + args;
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(out[1]);
+  Result r;
+  size_t next_signal = 0;
+  std::array<char, 4096> buffer{};
+  for (ssize_t n; (n = ::read(out[0], buffer.data(), buffer.size())) > 0;) {
+    r.output.append(buffer.data(), static_cast<size_t>(n));
+    while (next_signal < signals.size() && r.output.find(signals[next_signal].first) != std::string::npos)
+      ::kill(pid, signals[next_signal++].second);
+  }
+  ::close(out[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.killed_by = WTERMSIG(status);
+  return r;
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+void expect_no_temporaries(const fs::path& out) {
+  for (const auto& entry : fs::recursive_directory_iterator(out))
+    EXPECT_THAT(entry.path().filename().string(), Not(HasSubstr(".tmp-"))) << "temporary file left behind";
+}
+
+// The outputs of a run that processed `frames` frames: trajectory, models, summary.
+void expect_outputs_of(const fs::path& out, int frames) {
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_EQ(summary["frames"].get<int>(), frames);
+  EXPECT_EQ(read_tum_trajectory(out / "trajectories" / "camera.txt").size(), size_t(frames));
+  for (const char* f : {"models/model-0.glb", "models/model-0.ply", "scene.glb"}) EXPECT_TRUE(fs::exists(out / f)) << f;
+  expect_no_temporaries(out);
+}
+
+// A generated TUM folder of static_room's first `frames` frames, without masks (so no detector or
+// masks are involved), and the paths of its images by frame.
+struct TumCopy {
+  fs::path dir;
+  std::vector<fs::path> rgb, depth;
+};
+TumCopy generate_tum(int frames) {
+  TumCopy copy;
+  copy.dir = fresh_temp_dir("tum") / "static_room";
+  const auto g = run_cofusion("generate static_room --max-frames " + std::to_string(frames) + " --output " +
+                              copy.dir.string());
+  EXPECT_EQ(g.exit_code, 0) << g.output;
+  fs::remove_all(copy.dir / "masks");
+  std::ifstream in(copy.dir / "associations.txt");
+  for (std::string t_rgb, rgb, t_depth, depth; in >> t_rgb >> rgb >> t_depth >> depth;) {
+    copy.rgb.push_back(copy.dir / rgb);
+    copy.depth.push_back(copy.dir / depth);
+  }
+  EXPECT_EQ(copy.rgb.size(), size_t(frames));
+  return copy;
+}
+
+void zero_depth(const fs::path& depth_png) {
+  const cv::Mat depth = cv::imread(depth_png.string(), cv::IMREAD_UNCHANGED);
+  cv::imwrite(depth_png.string(), cv::Mat::zeros(depth.size(), depth.type()));
+}
+
+void corrupt(const fs::path& file) { std::ofstream(file, std::ios::trunc) << "not an image"; }
+
+const std::string kRun = "run --headless --semantic-source none ";
+
+TEST(RunFaults, ZeroDepthAndCorruptImagesAreSkippedAndTrackingGoesOn) {
+  const TumCopy tum = generate_tum(16);
+  for (int i : {5, 6, 7}) zero_depth(tum.depth[size_t(i)]);
+  corrupt(tum.rgb[9]);
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--input tum:" + tum.dir.string() + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("warning: frame 5 skipped: no valid depth reading"));
+  EXPECT_THAT(r.output, HasSubstr("warning: frame 9 skipped: colour image " + tum.rgb[9].string()));
+  expect_outputs_of(out, 12);
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_TRUE(summary["complete"].get<bool>());
+  EXPECT_FALSE(summary.contains("stop_reason"));
+  const auto& skipped = summary["skipped_frames"];
+  ASSERT_EQ(skipped.size(), 4u) << skipped.dump();
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(skipped[k]["frame"].get<int>(), int(k) + 5);
+    EXPECT_THAT(skipped[k]["reason"].get<std::string>(), HasSubstr("no valid depth"));
+  }
+  EXPECT_EQ(skipped[3]["frame"].get<int>(), 9);
+  EXPECT_THAT(skipped[3]["reason"].get<std::string>(), HasSubstr(tum.rgb[9].string()));
+  EXPECT_THAT(skipped[3]["reason"].get<std::string>(), HasSubstr("cannot be decoded"));
+  // Tracked across the gaps: no loss, and the poses are those of the ground truth.
+  EXPECT_TRUE(summary["tracking_failures"].empty()) << summary["tracking_failures"].dump();
+  const auto ate = eval::compute_ate(read_tum_trajectory(tum.dir / "groundtruth.txt"),
+                                     read_tum_trajectory(out / "trajectories" / "camera.txt"));
+  EXPECT_LT(ate.translation_m.rmse, 0.01);
+}
+
+// The case: fr2/desk with depth images 10-14 reading all zero (a covered sensor) completes
+// with those 5 frames skipped, and the camera ATE stays within 1 mm of the intact run's.
+TEST(RunFaults, Fr2DeskWithFiveZeroDepthFramesWithinOneMillimetreOfIntactSlow) {
+  const auto data = data_dir("tum_fr2_desk_50");
+  if (!data) GTEST_SKIP() << "TUM fr2/desk recording not found (set COFUSION_DATA)";
+  const fs::path copy = fresh_temp_dir() / "tum_fr2_desk_50";  // "fr2" in the name: the fr2 preset
+  fs::copy(*data, copy, fs::copy_options::recursive);
+  std::ifstream in(copy / "associations.txt");
+  std::vector<std::string> depth_files;
+  for (std::string t_rgb, rgb, t_depth, depth; in >> t_rgb >> rgb >> t_depth >> depth;) depth_files.push_back(depth);
+  ASSERT_EQ(depth_files.size(), 50u);
+  for (int i = 10; i <= 14; ++i) zero_depth(copy / depth_files[size_t(i)]);
+  const Trajectory gt = read_tum_trajectory(*data / "groundtruth.txt");
+  const auto ate_of = [&](const fs::path& input, const fs::path& out) {
+    const Result r = run_cofusion(kRun + "--input tum:" + input.string() + " --output " + out.string());
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return eval::compute_ate(gt, read_tum_trajectory(out / "trajectories" / "camera.txt")).translation_m.rmse;
+  };
+  const fs::path intact_out = fresh_temp_dir() / "intact", gap_out = fresh_temp_dir() / "gap";
+  const double intact = ate_of(*data, intact_out), gap = ate_of(copy, gap_out);
+  RecordProperty("camera_ate_intact_m", std::to_string(intact));
+  RecordProperty("camera_ate_gap_m", std::to_string(gap));
+  const auto summary = read_json(gap_out / "summary.json");
+  EXPECT_TRUE(summary["complete"].get<bool>());
+  ASSERT_EQ(summary["skipped_frames"].size(), 5u) << summary["skipped_frames"].dump();
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(summary["skipped_frames"][size_t(k)]["frame"].get<int>(), 10 + k);
+  expect_outputs_of(gap_out, 45);
+  EXPECT_LE(std::abs(gap - intact), 0.001) << "intact " << intact << " m, with the gap " << gap << " m";
+}
+
+// camera_loss covers the lens (no depth) in frames 30-59 while the camera moves 31 cm: those frames
+// are skipped, and the long gap is relocalised across at frame 60 instead of tracked from the last
+// pose (which converges on a wrong pose).
+TEST(RunFaults, LongGapIsRelocalisedAcross) {
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--input synthetic:camera_loss --max-frames 62 --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto summary = read_json(out / "summary.json");
+  ASSERT_EQ(summary["skipped_frames"].size(), 30u);
+  EXPECT_EQ(summary["skipped_frames"][0]["frame"].get<int>(), 30);
+  EXPECT_EQ(summary["camera"]["recovered_at"], nlohmann::json::array({60})) << summary["camera"].dump();
+  expect_outputs_of(out, 32);
+}
+
+TEST(RunFaults, StrictFailsAtTheFirstBadFrameLeavingNoOutput) {
+  const TumCopy tum = generate_tum(4);
+  fs::remove(tum.depth[2]);
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--strict --input tum:" + tum.dir.string() + " --output " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("error after 2 frames: frame 2: depth image " + tum.depth[2].string() +
+                                  " does not exist (--strict)"));
+  // Two frames were processed before the fault: their outputs are written, marked incomplete.
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_FALSE(summary["complete"].get<bool>());
+  EXPECT_THAT(summary["stop_reason"].get<std::string>(), HasSubstr("--strict"));
+  expect_outputs_of(out, 2);
+}
+
+TEST(RunFaults, StrictBadFirstFrameLeavesNoOutput) {
+  const TumCopy tum = generate_tum(3);
+  zero_depth(tum.depth[0]);
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--strict --input tum:" + tum.dir.string() + " --output " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("cofusion: error: frame 0: no valid depth reading"));
+  EXPECT_FALSE(fs::exists(out)) << "a run that fails before its first frame leaves no folder";
+}
+
+TEST(RunFaults, InputOfOnlyBadFramesFailsAndLeavesNoOutput) {
+  const TumCopy tum = generate_tum(3);
+  for (const auto& depth : tum.depth) zero_depth(depth);
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--input tum:" + tum.dir.string() + " --output " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("cofusion: error: no usable frame: all 3 frames are bad (frame 0: no valid depth"));
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(RunFaults, FailureAtTheFirstFrameLeavesNoOutput) {
+  const TumCopy tum = generate_tum(2);  // without masks
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion("run --headless --semantic-source masks --input tum:" + tum.dir.string() +
+                                " --output " + out.string() + " --save-segmentation");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("frame 0 has no instance mask"));
+  EXPECT_FALSE(fs::exists(out)) << "not even an empty trajectories/";
+}
+
+TEST(RunFaults, SigintStopsAfterTheCurrentFrameAndWritesEverything) {
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--input synthetic:static_room --output " + out.string(), {{"\nframe 3 ", SIGINT}});
+  EXPECT_EQ(r.exit_code, 128 + SIGINT) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("SIGINT: stopping after"));
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_FALSE(summary["complete"].get<bool>());
+  EXPECT_EQ(summary["stop_reason"], "SIGINT");
+  const int frames = summary["frames"].get<int>();
+  EXPECT_GE(frames, 3);
+  EXPECT_LT(frames, 120);
+  expect_outputs_of(out, frames);
+}
+
+TEST(RunFaults, SigtermStopsTheSameWay) {
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--input synthetic:static_room --output " + out.string(), {{"\nframe 2 ", SIGTERM}});
+  EXPECT_EQ(r.exit_code, 128 + SIGTERM) << r.output;
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_EQ(summary["stop_reason"], "SIGTERM");
+  expect_outputs_of(out, summary["frames"].get<int>());
+}
+
+TEST(RunFaults, SecondSigintAbortsAtOnce) {
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion(kRun + "--input synthetic:static_room --output " + out.string(),
+                                {{"\nframe 2 ", SIGINT}, {"SIGINT: stopping", SIGINT}});
+  EXPECT_EQ(r.killed_by, SIGINT) << r.output;
+}
+
+// An error after some frames (here: a label image that cannot be written, as on a full disk)
+// writes the outputs of the frames processed and fails with the error.
+TEST(RunFaults, ErrorMidRunWritesWhatItCanAndFails) {
+  const fs::path out = fresh_temp_dir() / "out";
+  fs::create_directories(out / "segmentation" / "0.100000.png");  // frame 3's label image: in the way
+  const Result r = run_cofusion(kRun + "--input synthetic:static_room --max-frames 10 --save-segmentation --output " +
+                                out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("error after 4 frames: cannot write " + (out / "segmentation" / "0.100000.png").string()));
+  EXPECT_THAT(r.output, HasSubstr("cofusion: error: cannot write"));
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_FALSE(summary["complete"].get<bool>());
+  EXPECT_THAT(summary["stop_reason"].get<std::string>(), HasSubstr("error: cannot write"));
+  expect_outputs_of(out, 4);
+  EXPECT_TRUE(fs::exists(out / "segmentation" / "0.066667.png"));
+  EXPECT_TRUE(fs::exists(out / "segmentation" / "classes.txt"));
+}
+
+TEST(RunFaults, NegativeMaxFramesIsOneShortLine) {
+  const fs::path out = fresh_temp_dir() / "out";
+  const Result r = run_cofusion("run --headless --max-frames -3 --output " + out.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("--max-frames: must be a whole number of frames, 1 or more (got '-3')"));
+  EXPECT_LT(r.output.size(), 300u) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace
+}  // namespace cofusion::test
