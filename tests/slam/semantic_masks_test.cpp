@@ -196,11 +196,11 @@ void expect_objects_modelled(const synthetic::SyntheticSequence& seq, const std:
   }
 }
 
-TEST_F(SemanticScenes, TablePlacementInstancesBecomeModelsOfTheirClassSlow) {
-  const synthetic::SyntheticSequence seq(synthetic::load_scene("table_placement"));
+// Runs `seq` in semantic mode with its own masks and checks that each of `objects` is modelled.
+void expect_semantic_mode_models(gpu::Context& ctx, const synthetic::SyntheticSequence& seq, const std::vector<int>& objects) {
   slam::CoFusionParams params;
   params.semantic.mode = slam::SegmentationMode::kSemantic;
-  CoFusion slam(ctx(), seq.intrinsics(), params);
+  CoFusion slam(ctx, seq.intrinsics(), params);
   std::vector<slam::CoFusionFrame> frames;
   for (int f = 0; f < seq.size(); ++f) {
     const Frame frame = seq.frame(f);
@@ -208,23 +208,18 @@ TEST_F(SemanticScenes, TablePlacementInstancesBecomeModelsOfTheirClassSlow) {
     frames.push_back(slam.process(frame.depth_m.ptr<float>(), frame.rgb.data, &masks));
     for (const auto& e : frames.back().events) std::printf("  %s\n", e.c_str());
   }
-  expect_objects_modelled(seq, frames, slam.models(), {1, 2, 3});
+  expect_objects_modelled(seq, frames, slam.models(), objects);
+}
+
+TEST_F(SemanticScenes, TablePlacementInstancesBecomeModelsOfTheirClassSlow) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("table_placement"));
+  expect_semantic_mode_models(ctx(), seq, {1, 2, 3});
 }
 
 // The box alone (its first 50 frames): fast enough for every run.
 TEST_F(SemanticScenes, CarriedInBoxBecomesABoxModelInSemanticMode) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("table_placement"), 0, 50);
-  slam::CoFusionParams params;
-  params.semantic.mode = slam::SegmentationMode::kSemantic;
-  CoFusion slam(ctx(), seq.intrinsics(), params);
-  std::vector<slam::CoFusionFrame> frames;
-  for (int f = 0; f < seq.size(); ++f) {
-    const Frame frame = seq.frame(f);
-    const SemanticFrame masks = semantic_frame(frame);
-    frames.push_back(slam.process(frame.depth_m.ptr<float>(), frame.rgb.data, &masks));
-    for (const auto& e : frames.back().events) std::printf("  %s\n", e.c_str());
-  }
-  expect_objects_modelled(seq, frames, slam.models(), {1});
+  expect_semantic_mode_models(ctx(), seq, {1});
 }
 
 TEST_F(SemanticScenes, RejectsMasksOfAnotherSize) {

@@ -308,35 +308,31 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     EXPECT_EQ(none.valid_live_pixels, 0) << what;
     EXPECT_EQ(none.icp[28], 0) << what;
 
-    // Huber-weighted photometric sums, with a delta below the RMS residual so that many residuals
-    // are down-weighted: the weighted sum r^2 must drop while the count and the ICP term stay.
-    if (cpu.rgb[28] > 0) {
-      const slam::HuberDeltas delta{0, 0.5 * std::sqrt(cpu.rgb[27] / cpu.rgb[28])};
+    // Huber-weighted sums, with deltas below the RMS residuals so that many residuals are
+    // down-weighted, for each term alone and both: GPU and CPU agree; a weighted term keeps its
+    // count and its sum r^2 drops, an unweighted one stays as it was.
+    const auto rms = [](const auto& term) { return term[28] > 0 ? std::sqrt(term[27] / term[28]) : 0.0; };
+    const double icp_delta = 0.5 * rms(cpu.icp), rgb_delta = 0.5 * rms(cpu.rgb);
+    for (const slam::HuberDeltas delta : {slam::HuberDeltas{icp_delta, 0}, slam::HuberDeltas{0, rgb_delta},
+                                          slam::HuberDeltas{icp_delta, rgb_delta}}) {
+      const std::string in = what + " huber (icp " + std::to_string(delta.icp_m) + ", rgb " + std::to_string(delta.rgb) + ")";
       const slam::LinearSystemSums g =
           tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, std::nullopt, delta);
       const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, params, std::nullopt, delta);
-      expect_sums_near(g.icp, c.icp, 2e-3, what + " huber icp");
-      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " huber rgb");
-      EXPECT_EQ(c.icp, cpu.icp) << what;
-      EXPECT_EQ(c.rgb[28], cpu.rgb[28]) << what;
-      if (s.w >= 160) {
-        EXPECT_LT(c.rgb[27], 0.8 * cpu.rgb[27]) << what;
-      }
-    }
-    // Huber-weighted ICP sums, likewise: the weighted point-to-plane sum r^2 drops, the count and
-    // the photometric term stay.
-    if (cpu.icp[28] > 0) {
-      const slam::HuberDeltas delta{0.5 * std::sqrt(cpu.icp[27] / cpu.icp[28]), 0};
-      const slam::LinearSystemSums g =
-          tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, std::nullopt, delta);
-      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, params, std::nullopt, delta);
-      expect_sums_near(g.icp, c.icp, 2e-3, what + " icp huber icp");
-      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " icp huber rgb");
-      EXPECT_EQ(c.rgb, cpu.rgb) << what;
-      EXPECT_EQ(c.icp[28], cpu.icp[28]) << what;
-      if (s.w >= 160) {
-        EXPECT_LT(c.icp[27], 0.8 * cpu.icp[27]) << what;
-      }
+      expect_sums_near(g.icp, c.icp, 2e-3, in + " icp");
+      expect_sums_near(g.rgb, c.rgb, 2e-3, in + " rgb");
+      const auto expect_weighted = [&](double d, const auto& weighted, const auto& plain, const char* term) {
+        if (d == 0) {
+          EXPECT_EQ(weighted, plain) << in << " " << term;
+          return;
+        }
+        EXPECT_EQ(weighted[28], plain[28]) << in << " " << term;
+        if (s.w >= 160) {
+          EXPECT_LT(weighted[27], 0.8 * plain[27]) << in << " " << term;
+        }
+      };
+      expect_weighted(delta.icp_m, c.icp, cpu.icp, "icp");
+      expect_weighted(delta.rgb, c.rgb, cpu.rgb, "rgb");
     }
   }
 }
