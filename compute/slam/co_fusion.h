@@ -1,7 +1,7 @@
 #pragma once
 // Multi-object dense SLAM (Co-Fusion, Rünz & Agapito 2017): the background and every moving
 // object are separate surfel models, each with its own pose, prediction, tracking and fusion.
-// Per frame (see README "Frame timeline"):
+// Per frame (see docs/design.md, "Frame timeline"):
 //   1. upload + preprocess the live frame (GPU, main stream); SLIC superpixels start on the CPU
 //      job system at the same time (they need only the frame);
 //   2. every active model, on its own stream (its own compute queue where the device has
