@@ -23,9 +23,9 @@ constexpr uint32_t rgba8(uint32_t r, uint32_t g, uint32_t b, uint32_t a = 255) {
   return r | (g << 8) | (b << 16) | (a << 24);
 }
 
-// Writes `image` as an 8-bit RGB PNG, atomically (temporary name, then rename). Throws
-// cofusion::Error naming the path when the image is empty or the file cannot be written.
-void write_png(const Image& image, const std::filesystem::path& path);
+// `image` as the bytes of an 8-bit RGB PNG file (the caller writes them, e.g. atomically: the
+// renderer does no file output of its own). Throws cofusion::Error when the image is empty.
+std::vector<uint8_t> encode_png(const Image& image);
 
 // Reads an RGB(A) PNG back into an Image (alpha forced opaque). Throws cofusion::Error naming the
 // path when it is missing or not an image.

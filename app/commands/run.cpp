@@ -396,7 +396,8 @@ int run(const RunOptions& o) {
       renderer::Overlay overlay = make_overlay({line});
       overlay.boxes = boxes(clouds(true));
       renderer::draw_overlay(image, view, overlay);
-      renderer::write_png(image, o.screenshot);
+      const std::vector<uint8_t> png = renderer::encode_png(image);
+      write_bytes_atomically(o.screenshot, std::as_bytes(std::span(png)));
     });
 
   nlohmann::ordered_json summary;

@@ -63,7 +63,7 @@ TEST_F(GoldenTest, SceneInAllColourModes) {
   const auto golden_path = source_dir() / "tests" / "renderer" / "golden" / "scene_modes.png";
   const char* update = std::getenv("COFUSION_UPDATE_GOLDEN");
   if (update && std::string(update) == "1") {
-    renderer::write_png(actual, golden_path);
+    write_png_file(actual, golden_path);
     std::cout << "golden written: " << golden_path << "\n";
     return;
   }
@@ -84,8 +84,8 @@ TEST_F(GoldenTest, SceneInAllColourModes) {
       }
       diff.rgba[i] = px;
     }
-    renderer::write_png(actual, dir / "actual.png");
-    renderer::write_png(diff, dir / "diff.png");
+    write_png_file(actual, dir / "actual.png");
+    write_png_file(diff, dir / "diff.png");
     ADD_FAILURE() << "rendered image differs from " << golden_path << " in " << share * 100
                   << "% of the pixels (tolerance " << kChannelTolerance << " per channel); actual: "
                   << (dir / "actual.png") << ", difference x8: " << (dir / "diff.png");

@@ -2,6 +2,8 @@
 // A small fixed scene for the renderer tests: a checkered floor (model 0), a sphere (model 1) and
 // a box (model 2, posed away from the origin), as surfel clouds generated here, and a camera.
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <vector>
 
 #include "common/surfel_cloud.h"
@@ -9,6 +11,12 @@
 #include "renderer/view_renderer.h"
 
 namespace cofusion::test {
+
+// Writes `image` as a PNG file (tests only; the program writes screenshots atomically).
+inline void write_png_file(const renderer::Image& image, const std::filesystem::path& path) {
+  const std::vector<uint8_t> bytes = renderer::encode_png(image);
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
 
 inline Surfel make_surfel(const Eigen::Vector3d& p, const Eigen::Vector3d& n, uint32_t rgba, float radius_m,
                           float confidence) {
