@@ -24,6 +24,188 @@ bool valid_depth(float d) { return std::isfinite(d) && d > 0; }
 
 std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
+
+// Throws a message naming the first inconsistency between the superpixels, images and costs.
+void check_unary_inputs(const Superpixels& sp, const uint8_t* rgb, const float* depth_m,
+                        std::span<const std::span<const float>> costs, int max_models) {
+  const int w = sp.width, h = sp.height;
+  if (w <= 0 || h <= 0) throw Error("motion segmentation: superpixel image size must be positive, got " + size_text(w, h));
+  const auto n = static_cast<size_t>(w) * static_cast<size_t>(h);
+  if (sp.label.size() != n || sp.count <= 0)
+    throw Error("motion segmentation: superpixels hold " + std::to_string(sp.label.size()) + " labels and " +
+                std::to_string(sp.count) + " superpixels for a " + size_text(w, h) + " image");
+  if (rgb == nullptr) throw Error("motion segmentation: rgb image pointer is null");
+  if (depth_m == nullptr) throw Error("motion segmentation: depth image pointer is null");
+  if (costs.size() > static_cast<size_t>(max_models))
+    throw Error("motion segmentation: " + std::to_string(costs.size()) + " models, at most " +
+                std::to_string(max_models) + " are supported");
+  for (size_t m = 0; m < costs.size(); ++m)
+    if (costs[m].size() != n)
+      throw Error("motion segmentation: costs[" + std::to_string(m) + "] has " + std::to_string(costs[m].size()) +
+                  " values, expected " + std::to_string(n) + " (" + size_text(w, h) + ")");
+}
+
+// What one row chunk saw besides its sums: the depth range and the first bad label or cost.
+struct ChunkInfo {
+  float depth_min = std::numeric_limits<float>::infinity();
+  float depth_max = -std::numeric_limits<float>::infinity();
+  int64_t bad_label = -1, bad_cost = -1;  // first offending pixel
+  int bad_cost_model = 0;
+};
+
+bool bad_cost_value(float v) { return !(v >= 0 && v <= std::numeric_limits<float>::max()); }
+
+// Per superpixel and model sums over the pixels of a chunk of rows (layout: kBaseSums, then per
+// model the pixels with depth and a cost and their cost sum). One run of a superpixel within a
+// row is summed locally, then added once.
+class ChunkSums {
+ public:
+  ChunkSums(const Superpixels& sp, const uint8_t* rgb, const float* depth_m, std::span<const std::span<const float>> costs)
+      : sp_(sp), rgb_(rgb), depth_m_(depth_m), costs_(costs), stride_(kBaseSums + 2 * costs.size()),
+        run_(stride_), row_depth_(static_cast<size_t>(sp.width)), row_valid_(static_cast<size_t>(sp.width)) {}
+
+  ChunkInfo add_rows(double* acc, int64_t y0, int64_t y1) {
+    const int w = sp_.width;
+    for (int64_t y = y0; y < y1; ++y) {
+      const auto row = static_cast<size_t>(y) * static_cast<size_t>(w);
+      load_depth_row(row);
+      int x = 0;
+      while (x < w) {
+        const int32_t k = sp_.label[row + static_cast<size_t>(x)];
+        if (k < 0 || k >= sp_.count) {
+          if (info_.bad_label < 0) info_.bad_label = static_cast<int64_t>(row) + x;
+          ++x;
+          continue;
+        }
+        const int xs = x;
+        while (x < w && sp_.label[row + static_cast<size_t>(x)] == k) ++x;
+        sum_run(row, static_cast<int>(y), xs, x);
+        double* acc_k = acc + static_cast<size_t>(k) * stride_;
+        for (size_t j = 0; j < stride_; ++j) acc_k[j] += run_[j];
+      }
+    }
+    return info_;
+  }
+
+ private:
+  void load_depth_row(size_t row) {
+    for (int x = 0; x < sp_.width; ++x) {
+      const float d = depth_m_[row + static_cast<size_t>(x)];
+      const bool ok = valid_depth(d);
+      row_valid_[static_cast<size_t>(x)] = ok;
+      row_depth_[static_cast<size_t>(x)] = ok ? d : 0.0f;
+      if (ok) {
+        info_.depth_min = std::min(info_.depth_min, d);
+        info_.depth_max = std::max(info_.depth_max, d);
+      }
+    }
+  }
+
+  // Pixels [xs, xe) of row y into run_ (integers, floats as the layout says).
+  void sum_run(size_t row, int y, int xs, int xe) {
+    uint32_t sr = 0, sg = 0, sb = 0, nd = 0;
+    float sd = 0;
+    for (int i = xs; i < xe; ++i) {
+      const size_t u = row + static_cast<size_t>(i);
+      sr += rgb_[3 * u];
+      sg += rgb_[3 * u + 1];
+      sb += rgb_[3 * u + 2];
+      nd += row_valid_[static_cast<size_t>(i)];
+      sd += row_depth_[static_cast<size_t>(i)];
+    }
+    const double len = xe - xs;
+    run_[0] = len;
+    run_[1] = len * (xs + xe - 1) * 0.5;
+    run_[2] = len * static_cast<double>(y);
+    run_[3] = sr;
+    run_[4] = sg;
+    run_[5] = sb;
+    run_[6] = nd;
+    run_[7] = sd;
+    for (size_t m = 0; m < costs_.size(); ++m) sum_costs(m, row, xs, xe);
+  }
+
+  // Costs count where the pixel has depth; NaN = no geometry.
+  void sum_costs(size_t m, size_t row, int xs, int xe) {
+    const float* c = costs_[m].data() + row;
+    uint32_t n_cost = 0;
+    float s_cost = 0;
+    bool bad = false;
+    for (int i = xs; i < xe; ++i) {
+      const float v = c[i];
+      const bool use = row_valid_[static_cast<size_t>(i)] && !std::isnan(v);
+      bad |= use && bad_cost_value(v);
+      n_cost += use;
+      s_cost += use ? v : 0.0f;
+    }
+    if (bad && info_.bad_cost < 0)
+      for (int i = xs; i < xe && info_.bad_cost < 0; ++i)
+        if (row_valid_[static_cast<size_t>(i)] && !std::isnan(c[i]) && bad_cost_value(c[i])) {
+          info_.bad_cost = static_cast<int64_t>(row) + i;
+          info_.bad_cost_model = static_cast<int>(m);
+        }
+    run_[kBaseSums + 2 * m] = n_cost;
+    run_[kBaseSums + 2 * m + 1] = s_cost;
+  }
+
+  const Superpixels& sp_;
+  const uint8_t* rgb_;
+  const float* depth_m_;
+  std::span<const std::span<const float>> costs_;
+  const size_t stride_;
+  std::vector<double> run_;
+  std::vector<float> row_depth_;  // valid depth or 0
+  std::vector<uint8_t> row_valid_;
+  ChunkInfo info_;  // per chunk: neighbouring chunks' entries would share a cache line
+};
+
+// Throws for the first bad label or cost any chunk met; else returns the frame's depth range
+// (max - min over valid readings, 0 without any).
+float checked_depth_range_m(const std::vector<ChunkInfo>& info, const Superpixels& sp,
+                            std::span<const std::span<const float>> costs) {
+  const int w = sp.width;
+  float depth_min = std::numeric_limits<float>::infinity(), depth_max = -std::numeric_limits<float>::infinity();
+  for (const ChunkInfo& ci : info) {
+    if (ci.bad_label >= 0)
+      throw Error("motion segmentation: superpixel label " + std::to_string(sp.label[static_cast<size_t>(ci.bad_label)]) +
+                  " at pixel (" + std::to_string(ci.bad_label % w) + ", " + std::to_string(ci.bad_label / w) +
+                  ") is outside 0.." + std::to_string(sp.count - 1));
+    if (ci.bad_cost >= 0)
+      throw Error("motion segmentation: costs[" + std::to_string(ci.bad_cost_model) + "] at pixel (" +
+                  std::to_string(ci.bad_cost % w) + ", " + std::to_string(ci.bad_cost / w) + ") is " +
+                  std::to_string(costs[static_cast<size_t>(ci.bad_cost_model)][static_cast<size_t>(ci.bad_cost)]) +
+                  " (expected metres >= 0, or NaN for no geometry)");
+    depth_min = std::min(depth_min, ci.depth_min);
+    depth_max = std::max(depth_max, ci.depth_max);
+  }
+  return depth_max >= depth_min ? depth_max - depth_min : 0.0f;
+}
+
+// The chunks' sums added in chunk order (deterministic), per superpixel.
+std::vector<double> combine_chunks(const std::vector<double>& partial, int K, size_t stride) {
+  std::vector<double> sums(static_cast<size_t>(K) * stride, 0.0);
+  detail::for_range(K, 128, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int ch = 0; ch < kChunks; ++ch) {
+        const double* a = partial.data() + (static_cast<size_t>(ch) * static_cast<size_t>(K) + static_cast<size_t>(k)) * stride;
+        double* s = sums.data() + static_cast<size_t>(k) * stride;
+        for (size_t j = 0; j < stride; ++j) s[j] += a[j];
+      }
+  });
+  return sums;
+}
+
+// Cost of a model without geometry at a superpixel (metres): the paper's fixed cost, a share of
+// the frame's depth range, bounded below and above (objects by their own maximum).
+struct NoGeometryCosts {
+  float background_m = 0, object_m = 0;
+  NoGeometryCosts(const MotionSegmentationParams& p, float depth_range_m) {
+    const float unbounded_m = std::max(p.no_geometry_cost_fraction * depth_range_m, p.no_geometry_cost_min_m);
+    background_m = std::min(unbounded_m, p.no_geometry_cost_max_m);
+    object_m = std::min(unbounded_m, p.object_no_geometry_cost_max_m);
+  }
+};
+
 }  // namespace
 
 MotionSegmenter::MotionSegmenter(MotionSegmentationParams params) : params_(std::move(params)) {
@@ -53,148 +235,24 @@ Superpixels MotionSegmenter::superpixels(const uint8_t* rgb, const float* depth_
   return sp;
 }
 
+
 const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixels& sp, const uint8_t* rgb,
                                                                  const float* depth_m,
                                                                  std::span<const std::span<const float>> costs) {
-  const int w = sp.width, h = sp.height;
-  if (w <= 0 || h <= 0) throw Error("motion segmentation: superpixel image size must be positive, got " + size_text(w, h));
-  const auto n = static_cast<size_t>(w) * static_cast<size_t>(h);
-  if (sp.label.size() != n || sp.count <= 0)
-    throw Error("motion segmentation: superpixels hold " + std::to_string(sp.label.size()) + " labels and " +
-                std::to_string(sp.count) + " superpixels for a " + size_text(w, h) + " image");
-  if (rgb == nullptr) throw Error("motion segmentation: rgb image pointer is null");
-  if (depth_m == nullptr) throw Error("motion segmentation: depth image pointer is null");
-  if (costs.size() > static_cast<size_t>(kMaxModels))
-    throw Error("motion segmentation: " + std::to_string(costs.size()) + " models, at most " +
-                std::to_string(kMaxModels) + " are supported");
-  for (size_t m = 0; m < costs.size(); ++m)
-    if (costs[m].size() != n)
-      throw Error("motion segmentation: costs[" + std::to_string(m) + "] has " + std::to_string(costs[m].size()) +
-                  " values, expected " + std::to_string(n) + " (" + size_text(w, h) + ")");
-
-  const int M = static_cast<int>(costs.size());
+  check_unary_inputs(sp, rgb, depth_m, costs, kMaxModels);
   const int K = sp.count;
-  const size_t stride = kBaseSums + 2 * static_cast<size_t>(M);
+  const size_t stride = kBaseSums + 2 * costs.size();
   partial_.assign(static_cast<size_t>(kChunks) * static_cast<size_t>(K) * stride, 0.0);
-  struct ChunkInfo {
-    float depth_min = std::numeric_limits<float>::infinity();
-    float depth_max = -std::numeric_limits<float>::infinity();
-    int64_t bad_label = -1, bad_cost = -1;  // first offending pixel
-    int bad_cost_model = 0;
-  };
   std::vector<ChunkInfo> info(kChunks);
-  detail::for_fixed_chunks(h, kChunks, [&](int chunk, int64_t y0, int64_t y1) {
+  detail::for_fixed_chunks(sp.height, kChunks, [&](int chunk, int64_t y0, int64_t y1) {
     double* acc = partial_.data() + static_cast<size_t>(chunk) * static_cast<size_t>(K) * stride;
-    ChunkInfo ci;  // local copy: neighbouring chunks' entries would share a cache line
-    std::vector<double> run(stride);
-    std::vector<float> row_depth(static_cast<size_t>(w));  // valid depth or 0
-    std::vector<uint8_t> row_valid(static_cast<size_t>(w));
-    for (int64_t y = y0; y < y1; ++y) {
-      const auto row = static_cast<size_t>(y) * static_cast<size_t>(w);
-      for (int x = 0; x < w; ++x) {
-        const float d = depth_m[row + static_cast<size_t>(x)];
-        const bool ok = valid_depth(d);
-        row_valid[static_cast<size_t>(x)] = ok;
-        row_depth[static_cast<size_t>(x)] = ok ? d : 0.0f;
-        if (ok) {
-          ci.depth_min = std::min(ci.depth_min, d);
-          ci.depth_max = std::max(ci.depth_max, d);
-        }
-      }
-      int x = 0;
-      while (x < w) {
-        const int32_t k = sp.label[row + static_cast<size_t>(x)];
-        if (k < 0 || k >= K) {
-          if (ci.bad_label < 0) ci.bad_label = static_cast<int64_t>(row) + x;
-          ++x;
-          continue;
-        }
-        // A run of one superpixel: sum it locally (integers, floats), then flush once.
-        const int xs = x;
-        while (x < w && sp.label[row + static_cast<size_t>(x)] == k) ++x;
-        uint32_t sr = 0, sg = 0, sb = 0, nd = 0;
-        float sd = 0;
-        for (int i = xs; i < x; ++i) {
-          const size_t u = row + static_cast<size_t>(i);
-          sr += rgb[3 * u];
-          sg += rgb[3 * u + 1];
-          sb += rgb[3 * u + 2];
-          nd += row_valid[static_cast<size_t>(i)];
-          sd += row_depth[static_cast<size_t>(i)];
-        }
-        const double len = x - xs;
-        run[0] = len;
-        run[1] = len * (xs + x - 1) * 0.5;
-        run[2] = len * static_cast<double>(y);
-        run[3] = sr;
-        run[4] = sg;
-        run[5] = sb;
-        run[6] = nd;
-        run[7] = sd;
-        for (int m = 0; m < M; ++m) {
-          const float* c = costs[static_cast<size_t>(m)].data() + row;
-          uint32_t n_cost = 0;
-          float s_cost = 0;
-          bool bad = false;
-          for (int i = xs; i < x; ++i) {
-            // Costs count where the pixel has depth; NaN = no geometry.
-            const float v = c[i];
-            const bool use = row_valid[static_cast<size_t>(i)] && !std::isnan(v);
-            bad |= use && !(v >= 0 && v <= std::numeric_limits<float>::max());
-            n_cost += use;
-            s_cost += use ? v : 0.0f;
-          }
-          if (bad && ci.bad_cost < 0) {
-            for (int i = xs; i < x && ci.bad_cost < 0; ++i)
-              if (row_valid[static_cast<size_t>(i)] && !std::isnan(c[i]) && !(c[i] >= 0 && c[i] <= std::numeric_limits<float>::max())) {
-                ci.bad_cost = static_cast<int64_t>(row) + i;
-                ci.bad_cost_model = m;
-              }
-          }
-          run[kBaseSums + 2 * static_cast<size_t>(m)] = n_cost;
-          run[kBaseSums + 2 * static_cast<size_t>(m) + 1] = s_cost;
-        }
-        double* acc_k = acc + static_cast<size_t>(k) * stride;
-        for (size_t j = 0; j < stride; ++j) acc_k[j] += run[j];
-      }
-    }
-    info[static_cast<size_t>(chunk)] = ci;
+    info[static_cast<size_t>(chunk)] = ChunkSums(sp, rgb, depth_m, costs).add_rows(acc, y0, y1);
   });
-  float depth_min = std::numeric_limits<float>::infinity(), depth_max = -std::numeric_limits<float>::infinity();
-  for (const ChunkInfo& ci : info) {
-    if (ci.bad_label >= 0)
-      throw Error("motion segmentation: superpixel label " + std::to_string(sp.label[static_cast<size_t>(ci.bad_label)]) +
-                  " at pixel (" + std::to_string(ci.bad_label % w) + ", " + std::to_string(ci.bad_label / w) +
-                  ") is outside 0.." + std::to_string(K - 1));
-    if (ci.bad_cost >= 0)
-      throw Error("motion segmentation: costs[" + std::to_string(ci.bad_cost_model) + "] at pixel (" +
-                  std::to_string(ci.bad_cost % w) + ", " + std::to_string(ci.bad_cost / w) + ") is " +
-                  std::to_string(costs[static_cast<size_t>(ci.bad_cost_model)][static_cast<size_t>(ci.bad_cost)]) +
-                  " (expected metres >= 0, or NaN for no geometry)");
-    depth_min = std::min(depth_min, ci.depth_min);
-    depth_max = std::max(depth_max, ci.depth_max);
-  }
+  unaries_.depth_range_m = checked_depth_range_m(info, sp, costs);
+  const std::vector<double> sums = combine_chunks(partial_, K, stride);
 
+  // Superpixels with depth become CRF nodes.
   Unaries& u = unaries_;
-  u.depth_range_m = depth_max >= depth_min ? depth_max - depth_min : 0.0f;
-  const float unbounded_fixed_cost_m =
-      std::max(params_.no_geometry_cost_fraction * u.depth_range_m, params_.no_geometry_cost_min_m);
-  const float fixed_cost_m = std::min(unbounded_fixed_cost_m, params_.no_geometry_cost_max_m);
-  const float object_fixed_cost_m = std::min(unbounded_fixed_cost_m, params_.object_no_geometry_cost_max_m);
-  const float step_x = sp.step_x_px > 0 ? sp.step_x_px : static_cast<float>(params_.slic.superpixel_size_px);
-  const float step_y = sp.step_y_px > 0 ? sp.step_y_px : static_cast<float>(params_.slic.superpixel_size_px);
-  const size_t L = static_cast<size_t>(M) + 1;
-
-  // Combine the chunks in order; superpixels with depth become CRF nodes.
-  std::vector<double> sums(static_cast<size_t>(K) * stride, 0.0);
-  detail::for_range(K, 128, [&](int64_t k0, int64_t k1) {
-    for (int64_t k = k0; k < k1; ++k)
-      for (int ch = 0; ch < kChunks; ++ch) {
-        const double* a = partial_.data() + (static_cast<size_t>(ch) * static_cast<size_t>(K) + static_cast<size_t>(k)) * stride;
-        double* s = sums.data() + static_cast<size_t>(k) * stride;
-        for (size_t j = 0; j < stride; ++j) s[j] += a[j];
-      }
-  });
   u.crf_node_of.assign(static_cast<size_t>(K), -1);
   u.crf_superpixel.clear();
   for (int32_t k = 0; k < K; ++k)
@@ -202,10 +260,24 @@ const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixe
       u.crf_node_of[static_cast<size_t>(k)] = static_cast<int32_t>(u.crf_superpixel.size());
       u.crf_superpixel.push_back(k);
     }
+  make_nodes(sp, sums, static_cast<int>(costs.size()));
+  return u;
+}
+
+// Each CRF node's position (in grid steps), colour and depth, and its label energies: the mean
+// cost of every model with geometry there (else its fixed cost), and the outlier label's energy,
+// which falls as the best model's rises.
+void MotionSegmenter::make_nodes(const Superpixels& sp, const std::vector<double>& sums, int M) {
+  Unaries& u = unaries_;
+  const auto& p = params_;
+  const size_t stride = kBaseSums + 2 * static_cast<size_t>(M);
+  const NoGeometryCosts fixed(p, u.depth_range_m);
+  const float step_x = sp.step_x_px > 0 ? sp.step_x_px : static_cast<float>(p.slic.superpixel_size_px);
+  const float step_y = sp.step_y_px > 0 ? sp.step_y_px : static_cast<float>(p.slic.superpixel_size_px);
+  const size_t L = static_cast<size_t>(M) + 1;
   const size_t nodes = u.crf_superpixel.size();
   u.nodes.resize(nodes);
   u.energy.resize(nodes * L);
-  const auto& p = params_;
   detail::for_range(static_cast<int64_t>(nodes), 256, [&](int64_t i0, int64_t i1) {
     for (int64_t ii = i0; ii < i1; ++ii) {
       const auto i = static_cast<size_t>(ii);
@@ -223,9 +295,8 @@ const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixe
       for (int m = 0; m < M; ++m) {
         const double with_cost = s[kBaseSums + 2 * static_cast<size_t>(m)];
         const bool has_geometry = with_cost > 0 && with_cost >= p.min_geometry_fraction * s[6];
-        const float cost_m =
-            has_geometry ? static_cast<float>(s[kBaseSums + 2 * static_cast<size_t>(m) + 1] / with_cost)
-                         : (m == 0 ? fixed_cost_m : object_fixed_cost_m);
+        const float cost_m = has_geometry ? static_cast<float>(s[kBaseSums + 2 * static_cast<size_t>(m) + 1] / with_cost)
+                                          : (m == 0 ? fixed.background_m : fixed.object_m);
         e[m] = cost_m / p.cost_scale_m;
         if (has_geometry) {
           any_geometry = true;
@@ -235,7 +306,6 @@ const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixe
       e[M] = std::max(p.outlier_threshold - p.outlier_slope * (any_geometry ? best : 0.0f), p.outlier_min_energy);
     }
   });
-  return u;
 }
 
 SegmentationResult MotionSegmenter::segment(const Superpixels& sp, const uint8_t* rgb, const float* depth_m,

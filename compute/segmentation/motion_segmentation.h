@@ -124,6 +124,9 @@ class MotionSegmenter {
                    SegmentationResult& result);
 
  private:
+  // unaries_'s nodes and energies from the per-superpixel sums of compute_unaries (M models).
+  void make_nodes(const Superpixels& sp, const std::vector<double>& sums, int M);
+
   MotionSegmentationParams params_;
   Slic slic_;
   DenseCrf crf_;
