@@ -72,121 +72,130 @@ void DenseCrf::set_nodes(std::span<const CrfNode> nodes, const CrfParams& params
   check(params);
   params_ = params;
   node_count_ = static_cast<int>(nodes.size());
-  const int n = node_count_;
-  const auto un = static_cast<size_t>(n);
-  for (size_t i = 0; i < un; ++i) {
+  for (size_t i = 0; i < nodes.size(); ++i) {
     const CrfNode& c = nodes[i];
     if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.r) || !std::isfinite(c.g) ||
         !std::isfinite(c.b) || !std::isfinite(c.depth_m))
       throw Error("CRF: node " + std::to_string(i) + " has a non-finite feature");
   }
-
   if (params.method == CrfMethod::kPermutohedral) {
-    std::vector<float> fa(un * 6), fs(un * 2);
-    for (size_t i = 0; i < un; ++i) {
-      const CrfNode& c = nodes[i];
-      fa[i * 6 + 0] = c.x / params.sigma_position;
-      fa[i * 6 + 1] = c.y / params.sigma_position;
-      fa[i * 6 + 2] = c.r / params.sigma_colour;
-      fa[i * 6 + 3] = c.g / params.sigma_colour;
-      fa[i * 6 + 4] = c.b / params.sigma_colour;
-      fa[i * 6 + 5] = c.depth_m / params.sigma_depth_m;
-      fs[i * 2 + 0] = c.x / params.sigma_smoothness;
-      fs[i * 2 + 1] = c.y / params.sigma_smoothness;
-    }
-    appearance_.init(fa.data(), 6, n);
-    smoothness_.init(fs.data(), 2, n);
-    const std::vector<float> ones(un, 1.0f);
-    norm_appearance_.resize(un);
-    norm_smoothness_.resize(un);
-    appearance_.filter(ones.data(), norm_appearance_.data(), 1);
-    smoothness_.filter(ones.data(), norm_smoothness_.data(), 1);
-    for (size_t i = 0; i < un; ++i) {
-      norm_appearance_[i] = 1.0f / std::sqrt(norm_appearance_[i] + 1e-20f);
-      norm_smoothness_[i] = 1.0f / std::sqrt(norm_smoothness_[i] + 1e-20f);
-    }
+    set_permutohedral(nodes);
     return;
   }
+  const Buckets buckets = sort_into_buckets(nodes);
+  build_exact_kernels(nodes, buckets);
+  normalise_exact_kernels();
+}
 
-  // Exact: neighbours within the positional radius where the wider kernel falls to exact_cutoff,
-  // found through square buckets of that size (3x3 buckets scanned per node).
-  const float sigma_max = std::max(params.sigma_position, params.sigma_smoothness);
-  const bool all_pairs = params.exact_cutoff <= 0;
-  const float radius = all_pairs ? std::numeric_limits<float>::infinity()
-                                 : sigma_max * std::sqrt(-2.0f * std::log(params.exact_cutoff));
-  float x_min = 0, x_max = 0, y_min = 0, y_max = 0;
+void DenseCrf::set_permutohedral(std::span<const CrfNode> nodes) {
+  const auto un = nodes.size();
+  const CrfParams& params = params_;
+  std::vector<float> fa(un * 6), fs(un * 2);
+  for (size_t i = 0; i < un; ++i) {
+    const CrfNode& c = nodes[i];
+    fa[i * 6 + 0] = c.x / params.sigma_position;
+    fa[i * 6 + 1] = c.y / params.sigma_position;
+    fa[i * 6 + 2] = c.r / params.sigma_colour;
+    fa[i * 6 + 3] = c.g / params.sigma_colour;
+    fa[i * 6 + 4] = c.b / params.sigma_colour;
+    fa[i * 6 + 5] = c.depth_m / params.sigma_depth_m;
+    fs[i * 2 + 0] = c.x / params.sigma_smoothness;
+    fs[i * 2 + 1] = c.y / params.sigma_smoothness;
+  }
+  appearance_.init(fa.data(), 6, node_count_);
+  smoothness_.init(fs.data(), 2, node_count_);
+  const std::vector<float> ones(un, 1.0f);
+  norm_appearance_.resize(un);
+  norm_smoothness_.resize(un);
+  appearance_.filter(ones.data(), norm_appearance_.data(), 1);
+  smoothness_.filter(ones.data(), norm_smoothness_.data(), 1);
+  for (size_t i = 0; i < un; ++i) {
+    norm_appearance_[i] = 1.0f / std::sqrt(norm_appearance_[i] + 1e-20f);
+    norm_smoothness_[i] = 1.0f / std::sqrt(norm_smoothness_[i] + 1e-20f);
+  }
+}
+
+// Exact: neighbours within the positional radius where the wider kernel falls to exact_cutoff,
+// found through square buckets of half that radius (5x5 scanned), the nodes' positions stored in
+// bucket order for a tight scan.
+DenseCrf::Buckets DenseCrf::sort_into_buckets(std::span<const CrfNode> nodes) {
+  const auto un = nodes.size();
+  Buckets g;
+  const float sigma_max = std::max(params_.sigma_position, params_.sigma_smoothness);
+  g.all_pairs = params_.exact_cutoff <= 0;
+  const float radius = g.all_pairs ? std::numeric_limits<float>::infinity()
+                                   : sigma_max * std::sqrt(-2.0f * std::log(params_.exact_cutoff));
+  g.r2 = radius * radius;
   for (size_t i = 0; i < un; ++i) {
     const float x = nodes[i].x, y = nodes[i].y;
-    if (i == 0 || x < x_min) x_min = x;
-    if (i == 0 || x > x_max) x_max = x;
-    if (i == 0 || y < y_min) y_min = y;
-    if (i == 0 || y > y_max) y_max = y;
+    if (i == 0 || x < g.x_min) g.x_min = x;
+    if (i == 0 || x > g.x_max) g.x_max = x;
+    if (i == 0 || y < g.y_min) g.y_min = y;
+    if (i == 0 || y > g.y_max) g.y_max = y;
   }
-  // Buckets of half the radius (5x5 scanned), positions stored in bucket order for a tight scan.
-  const float cell = all_pairs ? std::max({x_max - x_min, y_max - y_min, 1.0f}) + 1.0f : 0.5f * radius;
-  const int reach = all_pairs ? 0 : 2;
-  const int bw = std::max(1, static_cast<int>((x_max - x_min) / cell) + 1);
-  const int bh = std::max(1, static_cast<int>((y_max - y_min) / cell) + 1);
-  auto& bucket_of = bucket_of_;
-  auto& bucket_begin = bucket_begin_;
-  auto& bucket_nodes = bucket_nodes_;
-  auto& bucket_x = bucket_x_;
-  auto& bucket_y = bucket_y_;
-  bucket_of.resize(un);
-  bucket_begin.assign(static_cast<size_t>(bw) * static_cast<size_t>(bh) + 1, 0);
-  bucket_nodes.resize(un);
-  bucket_x.resize(un);
-  bucket_y.resize(un);
+  const float cell = g.all_pairs ? std::max({g.x_max - g.x_min, g.y_max - g.y_min, 1.0f}) + 1.0f : 0.5f * radius;
+  g.reach = g.all_pairs ? 0 : 2;
+  g.bw = std::max(1, static_cast<int>((g.x_max - g.x_min) / cell) + 1);
+  g.bh = std::max(1, static_cast<int>((g.y_max - g.y_min) / cell) + 1);
+  bucket_of_.resize(un);
+  bucket_begin_.assign(static_cast<size_t>(g.bw) * static_cast<size_t>(g.bh) + 1, 0);
+  bucket_nodes_.resize(un);
+  bucket_x_.resize(un);
+  bucket_y_.resize(un);
   for (size_t i = 0; i < un; ++i) {
-    const int bx = std::min(bw - 1, static_cast<int>((nodes[i].x - x_min) / cell));
-    const int by = std::min(bh - 1, static_cast<int>((nodes[i].y - y_min) / cell));
-    bucket_of[i] = by * bw + bx;
-    ++bucket_begin[static_cast<size_t>(bucket_of[i]) + 1];
+    const int bx = std::min(g.bw - 1, static_cast<int>((nodes[i].x - g.x_min) / cell));
+    const int by = std::min(g.bh - 1, static_cast<int>((nodes[i].y - g.y_min) / cell));
+    bucket_of_[i] = by * g.bw + bx;
+    ++bucket_begin_[static_cast<size_t>(bucket_of_[i]) + 1];
   }
-  for (size_t b = 1; b < bucket_begin.size(); ++b) bucket_begin[b] += bucket_begin[b - 1];
-  {
-    auto& fill = bucket_fill_;
-    fill.assign(bucket_begin.begin(), bucket_begin.end() - 1);
-    for (size_t i = 0; i < un; ++i) {
-      const auto k = static_cast<size_t>(fill[static_cast<size_t>(bucket_of[i])]++);
-      bucket_nodes[k] = static_cast<int32_t>(i);
-      bucket_x[k] = nodes[i].x;
-      bucket_y[k] = nodes[i].y;
+  for (size_t b = 1; b < bucket_begin_.size(); ++b) bucket_begin_[b] += bucket_begin_[b - 1];
+  bucket_fill_.assign(bucket_begin_.begin(), bucket_begin_.end() - 1);
+  for (size_t i = 0; i < un; ++i) {
+    const auto k = static_cast<size_t>(bucket_fill_[static_cast<size_t>(bucket_of_[i])]++);
+    bucket_nodes_[k] = static_cast<int32_t>(i);
+    bucket_x_[k] = nodes[i].x;
+    bucket_y_[k] = nodes[i].y;
+  }
+  return g;
+}
+
+// Calls fn(j, squared distance) for every neighbour j of node i at (xi, yi), i itself included,
+// in a fixed order.
+template <typename Fn>
+void DenseCrf::for_neighbours(const Buckets& g, size_t i, float xi, float yi, Fn&& fn) const {
+  const int b = bucket_of_[i];
+  const int bx = b % g.bw, by = b / g.bw;
+  for (int y = std::max(0, by - g.reach); y <= std::min(g.bh - 1, by + g.reach); ++y) {
+    const int x0 = std::max(0, bx - g.reach), x1 = std::min(g.bw - 1, bx + g.reach);
+    // Buckets x0..x1 of one bucket row are contiguous in bucket order.
+    const int32_t k0 = bucket_begin_[static_cast<size_t>(y * g.bw + x0)];
+    const int32_t k1 = bucket_begin_[static_cast<size_t>(y * g.bw + x1) + 1];
+    for (int32_t k = k0; k < k1; ++k) {
+      const float dx = bucket_x_[static_cast<size_t>(k)] - xi, dy = bucket_y_[static_cast<size_t>(k)] - yi;
+      const float d2 = dx * dx + dy * dy;
+      if (g.all_pairs || d2 <= g.r2) fn(bucket_nodes_[static_cast<size_t>(k)], d2);
     }
   }
-  const float r2 = radius * radius;
-  // Calls fn(j, squared distance) for every neighbour j of i (i itself included), in a fixed order.
-  auto for_neighbours = [&](size_t i, auto&& fn) {
-    const int b = bucket_of[i];
-    const int bx = b % bw, by = b / bw;
-    const float xi = nodes[i].x, yi = nodes[i].y;
-    for (int y = std::max(0, by - reach); y <= std::min(bh - 1, by + reach); ++y) {
-      const int x0 = std::max(0, bx - reach), x1 = std::min(bw - 1, bx + reach);
-      // Buckets x0..x1 of one bucket row are contiguous in bucket order.
-      const int32_t k0 = bucket_begin[static_cast<size_t>(y * bw + x0)];
-      const int32_t k1 = bucket_begin[static_cast<size_t>(y * bw + x1) + 1];
-      for (int32_t k = k0; k < k1; ++k) {
-        const float dx = bucket_x[static_cast<size_t>(k)] - xi, dy = bucket_y[static_cast<size_t>(k)] - yi;
-        const float d2 = dx * dx + dy * dy;
-        if (all_pairs || d2 <= r2) fn(bucket_nodes[static_cast<size_t>(k)], d2);
-      }
-    }
-  };
+}
+
+// Neighbour lists and both kernels' values (unnormalised) in CSR form: made in fixed node chunks
+// (one scan), then concatenated.
+void DenseCrf::build_exact_kernels(std::span<const CrfNode> nodes, const Buckets& g) {
+  const int n = node_count_;
+  const auto un = static_cast<size_t>(n);
   // Expected neighbours per node, to reserve the lists once.
-  const double area = static_cast<double>(x_max - x_min + 1) * static_cast<double>(y_max - y_min + 1);
-  const auto expected = static_cast<size_t>(
-      std::min<double>(static_cast<double>(un), all_pairs ? static_cast<double>(un) : 3.2 * r2 * static_cast<double>(un) / area + 8));
-  // Neighbour lists and kernel exponents in fixed node chunks (one scan), then concatenated.
-  const float ia = -0.5f / (params.sigma_position * params.sigma_position);
-  const float ic = -0.5f / (params.sigma_colour * params.sigma_colour);
-  const float id = -0.5f / (params.sigma_depth_m * params.sigma_depth_m);
-  const float is = -0.5f / (params.sigma_smoothness * params.sigma_smoothness);
+  const double area = static_cast<double>(g.x_max - g.x_min + 1) * static_cast<double>(g.y_max - g.y_min + 1);
+  const auto expected = static_cast<size_t>(std::min<double>(
+      static_cast<double>(un), g.all_pairs ? static_cast<double>(un) : 3.2 * g.r2 * static_cast<double>(un) / area + 8));
+  const float ia = -0.5f / (params_.sigma_position * params_.sigma_position);
+  const float ic = -0.5f / (params_.sigma_colour * params_.sigma_colour);
+  const float id = -0.5f / (params_.sigma_depth_m * params_.sigma_depth_m);
+  const float is = -0.5f / (params_.sigma_smoothness * params_.sigma_smoothness);
   constexpr int kChunks = 16;
-  auto& chunks = chunks_;
-  chunks.resize(kChunks);
+  chunks_.resize(kChunks);
   row_begin_.assign(un + 1, 0);
   detail::for_fixed_chunks(n, kChunks, [&](int ch, int64_t i0, int64_t i1) {
-    ExactChunk& c = chunks[static_cast<size_t>(ch)];
+    ExactChunk& c = chunks_[static_cast<size_t>(ch)];
     c.columns.clear();
     c.arg_a.clear();
     c.arg_s.clear();
@@ -198,7 +207,7 @@ void DenseCrf::set_nodes(std::span<const CrfNode> nodes, const CrfParams& params
       const auto i = static_cast<size_t>(ii);
       const CrfNode& a = nodes[i];
       const size_t before = c.columns.size();
-      for_neighbours(i, [&](int32_t j, float dp2) {
+      for_neighbours(g, i, a.x, a.y, [&](int32_t j, float dp2) {
         const CrfNode& b = nodes[static_cast<size_t>(j)];
         const float dr = a.r - b.r, dg = a.g - b.g, db = a.b - b.b, dd = a.depth_m - b.depth_m;
         c.columns.push_back(j);
@@ -212,39 +221,40 @@ void DenseCrf::set_nodes(std::span<const CrfNode> nodes, const CrfParams& params
   const auto entries = static_cast<size_t>(row_begin_[un]);
   columns_.resize(entries);
   values_.resize(entries);
-  auto& smooth = smooth_;
-  auto& norm_a = norm_a_;
-  auto& norm_s = norm_s_;
-  smooth.resize(entries);
-  norm_a.resize(un);
-  norm_s.resize(un);
+  smooth_.resize(entries);
   detail::for_fixed_chunks(n, kChunks, [&](int ch, int64_t i0, int64_t) {
-    const ExactChunk& c = chunks[static_cast<size_t>(ch)];
+    const ExactChunk& c = chunks_[static_cast<size_t>(ch)];
     const auto at = static_cast<size_t>(row_begin_[static_cast<size_t>(i0)]);
     std::copy(c.columns.begin(), c.columns.end(), columns_.begin() + static_cast<std::ptrdiff_t>(at));
     exp_nonpositive(c.arg_a.data(), values_.data() + at, c.arg_a.size());
-    exp_nonpositive(c.arg_s.data(), smooth.data() + at, c.arg_s.size());
+    exp_nonpositive(c.arg_s.data(), smooth_.data() + at, c.arg_s.size());
   });
-  // Symmetric normalisation of each kernel, then the weighted sum.
+}
+
+// Symmetric normalisation of each kernel, then their weighted sum into values_.
+void DenseCrf::normalise_exact_kernels() {
+  const int n = node_count_;
+  norm_a_.resize(static_cast<size_t>(n));
+  norm_s_.resize(static_cast<size_t>(n));
   detail::for_range(n, 64, [&](int64_t i0, int64_t i1) {
     for (int64_t ii = i0; ii < i1; ++ii) {
       const auto i = static_cast<size_t>(ii);
       double sum_a = 0, sum_s = 0;
       for (auto e = static_cast<size_t>(row_begin_[i]); e < static_cast<size_t>(row_begin_[i + 1]); ++e) {
         sum_a += values_[e];
-        sum_s += smooth[e];
+        sum_s += smooth_[e];
       }
-      norm_a[i] = static_cast<float>(1.0 / std::sqrt(sum_a));
-      norm_s[i] = static_cast<float>(1.0 / std::sqrt(sum_s));
+      norm_a_[i] = static_cast<float>(1.0 / std::sqrt(sum_a));
+      norm_s_[i] = static_cast<float>(1.0 / std::sqrt(sum_s));
     }
   });
-  const float wa = params.appearance_weight, ws = params.smoothness_weight;
+  const float wa = params_.appearance_weight, ws = params_.smoothness_weight;
   detail::for_range(n, 64, [&](int64_t i0, int64_t i1) {
     for (int64_t ii = i0; ii < i1; ++ii) {
       const auto i = static_cast<size_t>(ii);
       for (auto e = static_cast<size_t>(row_begin_[i]); e < static_cast<size_t>(row_begin_[i + 1]); ++e) {
         const auto j = static_cast<size_t>(columns_[e]);
-        values_[e] = wa * values_[e] * norm_a[i] * norm_a[j] + ws * smooth[e] * norm_s[i] * norm_s[j];
+        values_[e] = wa * values_[e] * norm_a_[i] * norm_a_[j] + ws * smooth_[e] * norm_s_[i] * norm_s_[j];
       }
     }
   });

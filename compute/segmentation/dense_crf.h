@@ -71,6 +71,19 @@ class DenseCrf {
   int64_t exact_entries() const { return static_cast<int64_t>(columns_.size()); }
 
  private:
+  // The exact kernels' bucket grid over node positions (grid steps).
+  struct Buckets {
+    int bw = 1, bh = 1, reach = 0;  // buckets across and down; buckets scanned each side
+    bool all_pairs = false;         // exact_cutoff <= 0: every node is every node's neighbour
+    float r2 = 0;                   // squared neighbour radius
+    float x_min = 0, x_max = 0, y_min = 0, y_max = 0;
+  };
+  void set_permutohedral(std::span<const CrfNode> nodes);
+  Buckets sort_into_buckets(std::span<const CrfNode> nodes);
+  template <typename Fn>
+  void for_neighbours(const Buckets& g, size_t i, float xi, float yi, Fn&& fn) const;
+  void build_exact_kernels(std::span<const CrfNode> nodes, const Buckets& g);
+  void normalise_exact_kernels();
   template <int kStride>
   void exact_message(const float* q, float* out, size_t stride) const;
 
