@@ -17,6 +17,7 @@
 #include "common/error.h"
 #include "export/surfel_selection.h"
 #include "io/atomic_file.h"
+#include "io/ply_reader.h"
 
 namespace cofusion {
 namespace fs = std::filesystem;
@@ -95,253 +96,68 @@ void write_model_ply(const SurfelCloud& model, const fs::path& path, const PlyOp
 
 namespace {
 
-enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
-
-std::optional<PlyType> parse_type(const std::string& t) {
-  if (t == "char" || t == "int8") return PlyType::Int8;
-  if (t == "uchar" || t == "uint8") return PlyType::UInt8;
-  if (t == "short" || t == "int16") return PlyType::Int16;
-  if (t == "ushort" || t == "uint16") return PlyType::UInt16;
-  if (t == "int" || t == "int32") return PlyType::Int32;
-  if (t == "uint" || t == "uint32") return PlyType::UInt32;
-  if (t == "float" || t == "float32") return PlyType::Float32;
-  if (t == "double" || t == "float64") return PlyType::Float64;
-  return std::nullopt;
-}
-
-std::size_t type_size(PlyType t) {
-  switch (t) {
-    case PlyType::Int8:
-    case PlyType::UInt8: return 1;
-    case PlyType::Int16:
-    case PlyType::UInt16: return 2;
-    case PlyType::Int32:
-    case PlyType::UInt32:
-    case PlyType::Float32: return 4;
-    default: return 8;
+// The model's header comments (model_id, class_name, state, frame, T_world_model) into `result`.
+void read_model_comments(const std::vector<ply::Comment>& comments, const std::string& where, PlyModel& result) {
+  for (const ply::Comment& comment : comments) {
+    std::istringstream ss(comment.text);
+    std::string key;
+    ss >> key;
+    std::string rest;
+    std::getline(ss, rest);
+    const std::string at = where + ":" + std::to_string(comment.line) + ": ";
+    std::istringstream rs(rest);
+    std::vector<std::string> values;
+    for (std::string v; rs >> v;) values.push_back(v);
+    try {
+      if (key == "model_id" && values.size() == 1) {
+        result.cloud.model_id = std::stoi(values[0]);
+      } else if (key == "class_name") {
+        const auto first = rest.find_first_not_of(' ');
+        result.cloud.class_name = first == std::string::npos ? "" : rest.substr(first);
+      } else if (key == "state" && values.size() == 1) {
+        if (values[0] == "active") result.cloud.state = ModelState::Active;
+        else if (values[0] == "inactive") result.cloud.state = ModelState::Inactive;
+        else if (values[0] == "deleted") result.cloud.state = ModelState::Deleted;
+        else throw Error("unknown state '" + values[0] + "'");
+      } else if (key == "frame" && values.size() == 1) {
+        if (values[0] == "model") result.frame = PlyFrame::Model;
+        else if (values[0] == "world") result.frame = PlyFrame::World;
+        else throw Error("unknown frame '" + values[0] + "'");
+      } else if (key == "T_world_model") {
+        if (values.size() != 12) throw Error("T_world_model needs 12 numbers");
+        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+        for (int i = 0; i < 12; ++i) m(i / 4, i % 4) = std::stod(values[size_t(i)]);
+        if (!m.allFinite()) throw Error("T_world_model is not finite");
+        result.cloud.T_world_model.matrix() = m;
+      }
+    } catch (const std::logic_error&) {  // std::stoi / std::stod
+      throw Error(at + "malformed '" + key + "' comment");
+    } catch (const Error& e) {
+      throw Error(at + e.what());
+    }
   }
-}
-
-std::uint64_t load_le(const unsigned char* p, std::size_t n) {
-  std::uint64_t v = 0;
-  for (std::size_t i = 0; i < n; ++i) v |= std::uint64_t(p[i]) << (8 * i);
-  return v;
-}
-
-double decode(PlyType t, const unsigned char* p) {
-  const std::uint64_t v = load_le(p, type_size(t));
-  switch (t) {
-    case PlyType::Int8: return static_cast<std::int8_t>(v);
-    case PlyType::UInt8: return static_cast<std::uint8_t>(v);
-    case PlyType::Int16: return static_cast<std::int16_t>(v);
-    case PlyType::UInt16: return static_cast<std::uint16_t>(v);
-    case PlyType::Int32: return static_cast<std::int32_t>(v);
-    case PlyType::UInt32: return static_cast<std::uint32_t>(v);
-    case PlyType::Float32: return std::bit_cast<float>(static_cast<std::uint32_t>(v));
-    default: return std::bit_cast<double>(v);
-  }
-}
-
-struct PlyProperty {
-  std::string name;
-  PlyType type = PlyType::Float32;
-  bool is_list = false;
-  std::size_t offset = 0;  // byte offset within a row (scalar properties)
-};
-
-struct PlyElement {
-  std::string name;
-  std::uint64_t count = 0;
-  std::vector<PlyProperty> properties;
-  bool has_list() const {
-    return std::any_of(properties.begin(), properties.end(), [](const PlyProperty& p) { return p.is_list; });
-  }
-  std::size_t row_bytes() const {
-    std::size_t n = 0;
-    for (const PlyProperty& p : properties) n += type_size(p.type);
-    return n;
-  }
-  const PlyProperty* find(const std::string& property) const {
-    for (const PlyProperty& p : properties)
-      if (p.name == property) return &p;
-    return nullptr;
-  }
-};
-
-std::vector<std::string> split(const std::string& line) {
-  std::istringstream ss(line);
-  std::vector<std::string> out;
-  for (std::string word; ss >> word;) out.push_back(word);
-  return out;
 }
 
 }  // namespace
 
 PlyModel read_surfel_ply(const fs::path& path) {
-  const std::string where = path.string();
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot open PLY file " + where);
-
-  auto next_line = [&](std::string& line) {
-    if (!std::getline(in, line)) return false;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    return true;
-  };
-
-  std::string line;
-  if (!next_line(line) || line != "ply") throw Error(where + ": not a PLY file (first line is not 'ply')");
-
+  enum Column { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kRadius, kConfidence };
+  const ply::VertexTable table = ply::read_vertices(
+      path, {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "radius", "confidence"});
   PlyModel result;
-  std::vector<PlyElement> elements;
-  bool have_format = false;
-  bool ended = false;
-  int line_no = 1;
-  while (next_line(line)) {
-    ++line_no;
-    const std::string at = where + ":" + std::to_string(line_no) + ": ";
-    const std::vector<std::string> w = split(line);
-    if (w.empty()) continue;
-    if (w[0] == "end_header") {
-      ended = true;
-      break;
-    }
-    if (w[0] == "format") {
-      if (w.size() < 2 || w[1] != "binary_little_endian")
-        throw Error(at + "unsupported PLY format '" + (w.size() > 1 ? w[1] : "") +
-                    "' (only binary_little_endian is read)");
-      have_format = true;
-    } else if (w[0] == "comment") {
-      if (w.size() < 2) continue;
-      const std::string rest = line.substr(line.find(w[1], line.find("comment") + 7) + w[1].size());
-      const std::vector<std::string> values = split(rest);
-      try {
-        if (w[1] == "model_id" && values.size() == 1) {
-          result.cloud.model_id = std::stoi(values[0]);
-        } else if (w[1] == "class_name") {
-          const auto first = rest.find_first_not_of(' ');
-          result.cloud.class_name = first == std::string::npos ? "" : rest.substr(first);
-        } else if (w[1] == "state" && values.size() == 1) {
-          if (values[0] == "active") result.cloud.state = ModelState::Active;
-          else if (values[0] == "inactive") result.cloud.state = ModelState::Inactive;
-          else if (values[0] == "deleted") result.cloud.state = ModelState::Deleted;
-          else throw Error("unknown state '" + values[0] + "'");
-        } else if (w[1] == "frame" && values.size() == 1) {
-          if (values[0] == "model") result.frame = PlyFrame::Model;
-          else if (values[0] == "world") result.frame = PlyFrame::World;
-          else throw Error("unknown frame '" + values[0] + "'");
-        } else if (w[1] == "T_world_model") {
-          if (values.size() != 12) throw Error("T_world_model needs 12 numbers");
-          Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-          for (int i = 0; i < 12; ++i) m(i / 4, i % 4) = std::stod(values[i]);
-          if (!m.allFinite()) throw Error("T_world_model is not finite");
-          result.cloud.T_world_model.matrix() = m;
-        }
-      } catch (const std::logic_error&) {  // std::stoi / std::stod
-        throw Error(at + "malformed '" + w[1] + "' comment");
-      } catch (const Error& e) {
-        throw Error(at + e.what());
-      }
-    } else if (w[0] == "obj_info") {
-      continue;
-    } else if (w[0] == "element") {
-      if (w.size() != 3) throw Error(at + "expected 'element <name> <count>'");
-      PlyElement e;
-      e.name = w[1];
-      try {
-        std::size_t used = 0;
-        e.count = std::stoull(w[2], &used);
-        if (used != w[2].size() || w[2][0] == '-') throw std::invalid_argument("count");
-      } catch (const std::logic_error&) {
-        throw Error(at + "bad element count '" + w[2] + "'");
-      }
-      elements.push_back(std::move(e));
-    } else if (w[0] == "property") {
-      if (elements.empty()) throw Error(at + "property before any element");
-      PlyProperty p;
-      if (w.size() == 5 && w[1] == "list") {
-        p.is_list = true;
-        p.name = w[4];
-      } else if (w.size() == 3) {
-        const auto type = parse_type(w[1]);
-        if (!type) throw Error(at + "unknown property type '" + w[1] + "'");
-        p.type = *type;
-        p.offset = elements.back().row_bytes();
-        p.name = w[2];
-      } else {
-        throw Error(at + "malformed property line");
-      }
-      elements.back().properties.push_back(std::move(p));
-    } else {
-      throw Error(at + "unknown header keyword '" + w[0] + "'");
-    }
-  }
-  if (!ended) throw Error(where + ": PLY header has no end_header line");
-  if (!have_format) throw Error(where + ": PLY header has no format line");
-
-  const std::streamoff data_start = in.tellg();
-  std::error_code ec;
-  const std::uintmax_t file_bytes = fs::file_size(path, ec);
-  if (ec || data_start < 0) throw Error("cannot read PLY file " + where);
-  std::uintmax_t remaining = file_bytes - static_cast<std::uintmax_t>(data_start);
-
-  auto byte_count = [&](const PlyElement& e) {
-    const std::size_t row = e.row_bytes();
-    if (row != 0 && e.count > std::numeric_limits<std::uintmax_t>::max() / row)
-      throw Error(where + ": element '" + e.name + "' count is too large");
-    return static_cast<std::uintmax_t>(e.count) * row;
-  };
-
-  const PlyElement* vertex = nullptr;
-  for (const PlyElement& e : elements) {
-    if (e.name == "vertex") {
-      vertex = &e;
-      break;
-    }
-    if (e.has_list())
-      throw Error(where + ": element '" + e.name + "' before 'vertex' has list properties (not supported)");
-    const std::uintmax_t skip = byte_count(e);
-    if (skip > remaining) throw Error(where + ": truncated in element '" + e.name + "'");
-    in.seekg(static_cast<std::streamoff>(skip), std::ios::cur);
-    remaining -= skip;
-  }
-  if (!vertex) throw Error(where + ": no 'vertex' element");
-  if (vertex->has_list()) throw Error(where + ": the vertex element has list properties (not supported)");
-  const PlyProperty* px = vertex->find("x");
-  const PlyProperty* py = vertex->find("y");
-  const PlyProperty* pz = vertex->find("z");
-  if (!px || !py || !pz) throw Error(where + ": the vertex element lacks x, y or z");
-
-  const std::size_t row = vertex->row_bytes();
-  const std::uintmax_t need = byte_count(*vertex);
-  if (need > remaining)
-    throw Error(where + ": truncated vertex data (" + std::to_string(vertex->count) + " vertices need " +
-                std::to_string(need) + " bytes, " + std::to_string(remaining) + " left)");
-  std::vector<unsigned char> data(static_cast<std::size_t>(need));
-  in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(need));
-  if (static_cast<std::uintmax_t>(in.gcount()) != need) throw Error(where + ": truncated vertex data");
-
-  const PlyProperty* normal[3] = {vertex->find("nx"), vertex->find("ny"), vertex->find("nz")};
-  const PlyProperty* colour[3] = {vertex->find("red"), vertex->find("green"), vertex->find("blue")};
-  const PlyProperty* radius = vertex->find("radius");
-  const PlyProperty* confidence = vertex->find("confidence");
-
+  read_model_comments(table.comments, path.string(), result);
   std::vector<Surfel>& surfels = result.cloud.surfels;
-  surfels.resize(static_cast<std::size_t>(vertex->count));
+  surfels.resize(table.count);
   for (std::size_t i = 0; i < surfels.size(); ++i) {
-    const unsigned char* r = data.data() + i * row;
-    auto get = [&](const PlyProperty* p, double fallback) { return p ? decode(p->type, r + p->offset) : fallback; };
+    const auto get = [&](Column c) { return static_cast<float>(table.at(i, c)); };
     Surfel s{};
-    s.px = static_cast<float>(get(px, 0));
-    s.py = static_cast<float>(get(py, 0));
-    s.pz = static_cast<float>(get(pz, 0));
-    s.nx = static_cast<float>(get(normal[0], 0));
-    s.ny = static_cast<float>(get(normal[1], 0));
-    s.nz = static_cast<float>(get(normal[2], 0));
-    s.radius_m = static_cast<float>(get(radius, 0));
-    s.confidence = static_cast<float>(get(confidence, 0));
+    s.px = get(kX), s.py = get(kY), s.pz = get(kZ);
+    s.nx = get(kNx), s.ny = get(kNy), s.nz = get(kNz);
+    s.radius_m = get(kRadius);
+    s.confidence = get(kConfidence);
     std::uint32_t rgba = 0xff000000u;
     for (int k = 0; k < 3; ++k) {
-      const double value = get(colour[k], 255);
+      const double value = table.present[size_t(kRed + k)] ? table.at(i, size_t(kRed + k)) : 255.0;  // absent: white
       const double c = std::isfinite(value) ? std::clamp(std::round(value), 0.0, 255.0) : 0.0;
       rgba |= static_cast<std::uint32_t>(c) << (8 * k);
     }

@@ -41,11 +41,10 @@ struct PlyModel {
   PlyFrame frame = PlyFrame::Model;  // the frame the vertices are in ("comment frame"; model if absent)
 };
 
-// Reads binary little-endian PLY files with a vertex element holding at least float-convertible
-// x, y, z; nx ny nz, red green blue, radius and confidence are read when present (any PLY scalar
-// type) and default to 0 (colour: white) otherwise. Other elements before the vertex element must
-// have fixed-size properties; everything after it is ignored. Throws cofusion::Error naming the
-// file on anything else (ASCII or big-endian files, truncated data, missing x/y/z).
+// Reads PLY files (ascii, binary little- or big-endian; io/ply_reader.h) with a vertex element
+// holding at least x, y, z; nx ny nz, red green blue, radius and confidence are read when present
+// (any PLY scalar type) and default to 0 (colour: white) otherwise. Throws cofusion::Error naming
+// the file on anything else (truncated data, missing x/y/z, a malformed model comment).
 PlyModel read_surfel_ply(const std::filesystem::path& path);
 
 }  // namespace cofusion

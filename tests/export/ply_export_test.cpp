@@ -188,6 +188,20 @@ TEST(PlyExport, ReaderAcceptsOtherScalarTypesAndLeadingElements) {
   EXPECT_EQ(s.radius_m, 0.0f);
 }
 
+TEST(PlyExport, ReaderReadsAsciiFilesWithTheirComments) {
+  const fs::path dir = test::fresh_temp_dir();
+  std::ofstream(dir / "a.ply") << "ply\nformat ascii 1.0\ncomment model_id 4\ncomment class_name coffee mug\n"
+                                  "element vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+                                  "property uchar red\nproperty list uchar int extra\nend_header\n"
+                                  "1 2 3 10 2 7 8\n-1 -2 -3.5 20 0\n";
+  const PlyModel back = read_surfel_ply(dir / "a.ply");
+  EXPECT_EQ(back.cloud.model_id, 4);
+  EXPECT_EQ(back.cloud.class_name, "coffee mug");
+  ASSERT_EQ(back.cloud.surfels.size(), 2u);
+  EXPECT_EQ(back.cloud.surfels[1].pz, -3.5f);
+  EXPECT_EQ(back.cloud.surfels[1].colour_rgba8, test::pack_rgba(20, 255, 255, 255));
+}
+
 void expect_read_error(const fs::path& path, const std::string& content, const std::string& expected_words) {
   if (!content.empty()) std::ofstream(path, std::ios::binary) << content;
   try {
@@ -204,8 +218,8 @@ TEST(PlyExport, ReaderRejectsBadFilesNamingThem) {
   const fs::path dir = test::fresh_temp_dir();
   expect_read_error(dir / "missing.ply", "", "cannot open");
   expect_read_error(dir / "not.ply", "solid cube\n", "not a PLY file");
-  expect_read_error(dir / "ascii.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
-                    "only binary_little_endian");
+  expect_read_error(dir / "odd.ply", "ply\nformat binary_middle_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
+                    "unknown PLY format");
   expect_read_error(dir / "noend.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1\n", "end_header");
   expect_read_error(dir / "noxyz.ply",
                     "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float q\nend_header\n1234",
