@@ -340,9 +340,48 @@ class CoFusion {
   void compute_residuals(Model& m);
   void fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect);
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
+  // The steps of process(), in order.
+  std::vector<uint8_t> begin_semantic_frame(const SemanticFrame* semantic);
+  void set_work_rects(const std::vector<Model*>& active);
+  template <typename Work>
+  static void for_each_model(const std::vector<Model*>& models, const Work& work);
+  CameraState track_models(const std::vector<Model*>& active);
+  void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);
+  void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
+               const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
+               std::vector<int>& spawned_slots);
+  void label_all_background(const float* depth_m, const std::vector<uint8_t>& excluded);
+  void fuse_models(const std::vector<int>& spawned_slots);
+  void finish_frame(CameraState camera, const FrameEncoding& encoding, const float* depth_m, const uint8_t* rgb,
+                    CoFusionFrame& out);
+  // The model lifecycle (lifecycle.cpp).
   std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,
                                        const std::vector<std::vector<float>>& costs, const float* depth_m,
                                        std::vector<Model*>& order, CoFusionFrame& out, std::vector<int>& spawned_slots);
+  // This frame's outlier regions (pixel lists, largest first) and those of them that spawn.
+  struct SpawnPlan {
+    struct Spawn {
+      size_t region;  // index into regions
+      int slot;       // the free slot it takes
+      std::optional<Eigen::Vector3d> centroid, previous_centroid;  // camera frame, this and last frame
+    };
+    std::vector<std::vector<size_t>> regions;
+    std::vector<Spawn> spawns;
+  };
+  std::vector<uint8_t> slots_from_segmentation(const segmentation::SegmentationResult& seg,
+                                               const std::vector<std::vector<float>>& costs, const float* depth_m,
+                                               const std::vector<Model*>& order, CoFusionFrame& out);
+  static void relabel(std::vector<uint8_t>& slots, int from, int to);
+  void merge_static_newcomers(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
+  void merge_comoving(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
+  std::vector<std::vector<size_t>> outlier_regions(const segmentation::SegmentationResult& seg, uint8_t outlier,
+                                                   std::vector<uint8_t>& slots);
+  std::optional<Eigen::Vector3d> region_centroid(const std::vector<size_t>& pixels, const float* depth_m) const;
+  SpawnPlan plan_spawns(const segmentation::SegmentationResult& seg, const float* depth_m, uint8_t outlier,
+                        const Model& bg, std::vector<uint8_t>& slots);
+  void spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector<size_t>& pixels,
+                           const std::vector<int>& slot_pixels, CoFusionFrame& out, std::vector<int>& spawned_slots);
+  void update_presence(const std::vector<int>& slot_pixels, CoFusionFrame& out);
   bool try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera);
   bool relocalise(Model& bg, const FrameEncoding& encoding, const FrameFeatures& features);
   void hold_still(const std::vector<Model*>& active, const std::string& why);

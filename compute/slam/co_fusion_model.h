@@ -1,0 +1,116 @@
+#pragma once
+// Internal to CoFusion (co_fusion.cpp, lifecycle.cpp): a model's state and the label slots.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/se3.h"
+#include "slam/co_fusion.h"
+
+namespace cofusion::slam::internal {
+
+constexpr uint8_t kNoSlot = 255;  // no model: no depth, or a model's pixel it cannot explain
+constexpr int kSlots = 32;        // the label masks are 32-bit
+// Pixels no model claims although they have depth (outliers that spawned nothing, components the
+// segmentation removed): nobody fuses them, but the background still tracks with them, so that a
+// burst of outliers (fast camera motion) cannot starve the camera's tracking.
+constexpr uint8_t kUnclaimedSlot = kSlots - 1;
+// Pixels of a non-rigid mover (LifecycleParams::mover_min_overlap): nobody fuses or tracks them.
+constexpr uint8_t kMoverSlot = kSlots - 2;
+// Model::slot of a model without a label slot: inactive, or merged away / deleted (pruned from the
+// list after the lifecycle step).
+constexpr int kInactiveSlot = -1;
+constexpr int kRemovedSlot = -2;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+inline double rotation_deg(const Eigen::Isometry3d& T) { return rotation_angle_rad(T) * 180.0 / M_PI; }
+
+// Surfels of one model expressed in another frame: T_to_from maps positions, its rotation normals.
+inline void transform_surfels(std::vector<Surfel>& surfels, const Eigen::Isometry3d& T_to_from) {
+  const Eigen::Matrix3f R = T_to_from.rotation().cast<float>();
+  const Eigen::Vector3f t = T_to_from.translation().cast<float>();
+  for (Surfel& s : surfels) {
+    const Eigen::Vector3f p = R * Eigen::Vector3f(s.px, s.py, s.pz) + t;
+    const Eigen::Vector3f n = R * Eigen::Vector3f(s.nx, s.ny, s.nz);
+    s.px = p.x(), s.py = p.y(), s.pz = p.z();
+    s.nx = n.x(), s.ny = n.y(), s.nz = n.z();
+  }
+}
+
+}  // namespace cofusion::slam::internal
+
+namespace cofusion::slam {
+
+struct CoFusion::Model {
+  Model(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusionParams& p,
+        const std::vector<kernels::FramePyramid::Level>& live, int id_, int slot_, int frame)
+      : id(id_),
+        slot(slot_),
+        stream(ctx, static_cast<uint32_t>(slot_ + 1), "model " + std::to_string(id_)),
+        surfels(ctx, id_, id_ == 0 ? p.slam.fusion.initial_capacity : std::max(1u << 16, p.slam.fusion.initial_capacity / 8)),
+        prediction(ModelPrediction::allocate(ctx, intrinsics, p.slam.preprocess.pyramid_levels,
+                                             "model " + std::to_string(id_) + " prediction")),
+        tracker(ctx, tracker_params(p, id_)),
+        masked(MotionKernels::allocate_masked_levels(ctx, live, "model " + std::to_string(id_) + " masked live")),
+        first_frame(frame),
+        last_frame(frame) {
+    residuals = gpu::Buffer::create(ctx, size_t(intrinsics.width) * intrinsics.height * 16,
+                                    "model " + std::to_string(id_) + " motion residuals");
+    stream.set_profile_group(id_ == 0 ? "background" : "objects");
+  }
+  static TrackerParams tracker_params(const CoFusionParams& p, int id) {
+    TrackerParams t = p.slam.tracker;
+    if (id != 0) {
+      t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
+      t.outline_photometric = p.lifecycle.object_outline_photometric;
+      t.iterations_per_level = p.lifecycle.object_iterations_per_level;
+    }
+    return t;
+  }
+
+  int id;
+  int slot;  // label slot while active, else kInactiveSlot or kRemovedSlot
+  ModelState state = ModelState::kActive;
+  gpu::Stream stream;
+  SurfelModel surfels;
+  ModelPrediction prediction;
+  Tracker tracker;
+  std::vector<kernels::FramePyramid::Level> masked;  // live levels with the vertices this model owned
+  gpu::BufferPtr residuals;                   // vec4 per pixel (motion_kernels.h)
+  std::vector<float> residuals_host;          // its read-back (valid in residual_rect's rows)
+  // Objects work only where they are: tracking, masking and fusion in the bounding rectangle of
+  // their labelled pixels (previous segmentation for tracking, this one for fusion), residuals in
+  // that of the previous segmentation grown by MotionCostParams::object_margin_px. The
+  // background works on the whole image.
+  PixelRect track_rect, residual_rect;
+
+  // This frame.
+  bool tracked = false;
+  TrackingResult tracking;
+  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();       // T_reference_live of this frame
+  Eigen::Isometry3d last_motion = Eigen::Isometry3d::Identity();  // previous frame's, the guess
+  // The live frame in the view its prediction was made from: the residuals' transform (`motion`,
+  // except after a relocalisation, which predicts from the recovered pose).
+  Eigen::Isometry3d T_prediction_live = Eigen::Isometry3d::Identity();
+  bool settled = false;  // its residuals are this frame's (else it has no costs this frame)
+  int pixels = 0;
+  int rigidity_failures = 0;  // frames of its rigidity trial that counted against it
+
+  // Its pose when it last covered a spawn-sized region and tracked (an object leaving the view is
+  // tracked from fewer and fewer pixels at the border: that pose is the better guess when it
+  // comes back).
+  std::optional<Eigen::Isometry3d> T_world_model_last_seen;
+
+  int first_frame;
+  int last_frame;
+  int unseen_frames = 0;
+  bool on_probation = true;  // objects: not yet shown to move relative to the background
+  PoseHistory trajectory;  // (frame, T_world_model) while active
+  PoseHistory seen_trajectory;  // of those, the frames it was tracked in
+  ClassVotes class_votes;  // its recognitions by instance masks (semantic_masks.h)
+};
+
+}  // namespace cofusion::slam

@@ -1,0 +1,512 @@
+// The model lifecycle of CoFusion (see docs/design.md, "Frame timeline"): from the frame's
+// segmentation to model slots; rigidity trials, merges, spawns, re-activation and retirement;
+// instance masks; movers.
+#include <algorithm>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "segmentation/connected_components.h"
+#include "slam/co_fusion.h"
+#include "slam/co_fusion_model.h"
+
+namespace cofusion::slam {
+using namespace internal;  // the label slots (co_fusion_model.h)
+
+bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen::Isometry3d& T_a_b,
+                        double max_translation_m, double max_rotation_deg) {
+  auto ia = a.begin();
+  for (const auto& [frame, T_world_b] : b) {
+    while (ia != a.end() && ia->first < frame) ++ia;
+    if (ia == a.end()) break;
+    if (ia->first != frame) continue;
+    const Eigen::Isometry3d change = (ia->second.inverse() * T_world_b).inverse() * T_a_b;
+    if (change.translation().norm() > max_translation_m || rotation_deg(change) > max_rotation_deg) return false;
+  }
+  return true;
+}
+
+// Turns the segmentation (labels = index into `order`, order.size() = outlier) into model slots
+// and applies the lifecycle rules: rigidity trials, merges, spawns and re-activations, absence
+// and retirement. Uploads the final label map.
+std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationResult& seg,
+                                               const std::vector<std::vector<float>>& costs, const float* depth_m,
+                                               std::vector<Model*>& order, CoFusionFrame& out,
+                                               std::vector<int>& spawned_slots) {
+  std::vector<uint8_t> slots = slots_from_segmentation(seg, costs, depth_m, order, out);
+  merge_static_newcomers(order, slots, out);
+  merge_comoving(order, slots, out);
+  SpawnPlan plan = plan_spawns(seg, depth_m, static_cast<uint8_t>(order.size()), *order.front(), slots);
+  // Pixels per slot, kept up to date as the new regions take their (free) slots; an object model
+  // whose slot has none lost its object in this segmentation.
+  std::vector<int> slot_pixels(kSlots, 0);
+  for (uint8_t sl : slots)
+    if (sl != kNoSlot) ++slot_pixels[sl];
+  uint32_t taken = 0;  // slots given to this frame's new models
+  for (SpawnPlan::Spawn& sp : plan.spawns) {
+    sp.slot = free_slot(taken);
+    taken |= 1u << sp.slot;
+    for (size_t i : plan.regions[sp.region]) {
+      if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
+      slots[i] = static_cast<uint8_t>(sp.slot);
+      ++slot_pixels[size_t(sp.slot)];
+    }
+  }
+  if (semantic_) apply_instances(slots, slot_pixels, taken, depth_m, out, spawned_slots);
+  upload_labels(slots);
+  for (const SpawnPlan::Spawn& sp : plan.spawns)
+    spawn_or_reactivate(sp, plan.regions[sp.region], slot_pixels, out, spawned_slots);
+  update_presence(slot_pixels, out);
+  std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == kRemovedSlot; });
+  return slots;
+}
+
+// Each pixel's slot: its model's where the segmentation gave it to a model whose motion explains
+// it, unclaimed where it is an outlier or unlabelled with depth, else none. Then the young models
+// that fail their rigidity trial are dropped (drop_nonrigid).
+std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::SegmentationResult& seg,
+                                                       const std::vector<std::vector<float>>& costs,
+                                                       const float* depth_m, const std::vector<Model*>& order,
+                                                       CoFusionFrame& out) {
+  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
+  const uint8_t outlier = static_cast<uint8_t>(order.size());
+  std::vector<uint8_t> slots(n, kNoSlot);
+  const float max_cost = params_.costs.max_explained_cost_m;
+  // Per model: pixels the segmentation gave it, and of those the ones its motion explains.
+  std::vector<int> labelled(order.size(), 0), explained(order.size(), 0);
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t l = seg.labels[i];
+    if (l < outlier) ++labelled[l];
+    if (l < outlier && !(costs[l][i] > max_cost)) {
+      slots[i] = static_cast<uint8_t>(order[l]->slot);
+      ++explained[l];
+    } else if (l == outlier || (l == segmentation::kNoLabel && depth_m[i] > 0.0f)) {
+      slots[i] = kUnclaimedSlot;
+    }
+  }
+  drop_nonrigid(order, seg.labels, labelled, explained, slots, out);
+  return slots;
+}
+
+void CoFusion::relabel(std::vector<uint8_t>& slots, int from, int to) {
+  for (auto& s : slots)
+    if (s == from) s = static_cast<uint8_t>(to);
+}
+
+// A young model that has not moved relative to the background within its probation is no object:
+// it is merged back, its pixels given to the background.
+void CoFusion::merge_static_newcomers(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out) {
+  const LifecycleParams& p = params_.lifecycle;
+  Model& bg = *order.front();
+  for (Model* m : order) {
+    if (m->id == 0 || m->state != ModelState::kActive || !m->on_probation) continue;
+    const Eigen::Isometry3d moved = m->trajectory.front().second.inverse() * m->surfels.T_world_model;
+    if (moved.translation().norm() >= p.static_translation_m || rotation_deg(moved) >= p.static_rotation_deg) {
+      m->on_probation = false;
+    } else if (frame_ - m->first_frame >= p.probation_frames) {
+      relabel(slots, m->slot, bg.slot);
+      merge_into(bg, *m, out, "did not move relative to the background");
+    }
+  }
+}
+
+// Two object models that moved (both of them) as one body over the last merge_window_frames, and
+// never moved apart in the frames both were active, become one.
+void CoFusion::merge_comoving(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out) {
+  const LifecycleParams& p = params_.lifecycle;
+  const int window = p.merge_window_frames;
+  const auto pose_at = [](const Model& m, size_t back) { return m.trajectory[m.trajectory.size() - 1 - back].second; };
+  const auto moved = [&](const Eigen::Isometry3d& T) {
+    return T.translation().norm() >= p.static_translation_m || rotation_deg(T) >= p.static_rotation_deg;
+  };
+  for (Model* a : order) {
+    for (Model* b : order) {
+      if (a->id == 0 || b->id <= a->id || a->state != ModelState::kActive || b->state != ModelState::kActive) continue;
+      if (a->on_probation || b->on_probation) continue;
+      if (int(a->trajectory.size()) <= window || int(b->trajectory.size()) <= window) continue;
+      const Eigen::Isometry3d rel_now = a->surfels.T_world_model.inverse() * b->surfels.T_world_model;
+      const Eigen::Isometry3d rel_then = pose_at(*a, window - 1).inverse() * pose_at(*b, window - 1);
+      const Eigen::Isometry3d change = rel_then.inverse() * rel_now;
+      const Eigen::Isometry3d a_moved = pose_at(*a, window - 1).inverse() * a->surfels.T_world_model;
+      const Eigen::Isometry3d b_moved = pose_at(*b, window - 1).inverse() * b->surfels.T_world_model;
+      if (change.translation().norm() < p.merge_translation_m && rotation_deg(change) < p.merge_rotation_deg &&
+          moved(a_moved) && moved(b_moved) &&
+          relative_pose_held(a->trajectory, b->trajectory, rel_now, p.merge_history_translation_m,
+                             p.merge_history_rotation_deg)) {
+        relabel(slots, b->slot, a->slot);
+        merge_into(*a, *b, out, "moves with model " + std::to_string(a->id));
+      }
+    }
+  }
+}
+
+// The pixels of every connected outlier region (4-connectivity) that is no mover and covers
+// between spawn_min_area_fraction and spawn_max_area_fraction of the image, largest first.
+std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::SegmentationResult& seg, uint8_t outlier,
+                                                           std::vector<uint8_t>& slots) {
+  const LifecycleParams& p = params_.lifecycle;
+  const int width = intrinsics_.width, height = intrinsics_.height;
+  const double n = double(width) * height;
+  segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
+  const std::vector<char> mover = mark_movers(outlier, slots);
+  std::vector<int> large_components;
+  for (int c = 0; c < int(components_.components.size()); ++c) {
+    const auto& info = components_.components[size_t(c)];
+    if (info.value == outlier && !mover[size_t(c)] && double(info.pixels) > p.spawn_min_area_fraction * n &&
+        double(info.pixels) <= p.spawn_max_area_fraction * n)
+      large_components.push_back(c);
+  }
+  std::sort(large_components.begin(), large_components.end(), [&](int x, int y) {
+    return components_.components[size_t(x)].pixels > components_.components[size_t(y)].pixels;
+  });
+  std::vector<int> region_of(components_.components.size(), -1);
+  for (size_t r = 0; r < large_components.size(); ++r) region_of[size_t(large_components[r])] = int(r);
+  std::vector<std::vector<size_t>> regions(large_components.size());
+  for (const auto& run : components_.runs)
+    if (run.component >= 0 && region_of[size_t(run.component)] >= 0)
+      for (int x = run.x0; x < run.x1; ++x)
+        regions[size_t(region_of[size_t(run.component)])].push_back(size_t(run.y) * size_t(width) + size_t(x));
+  return regions;
+}
+
+// Centroid (camera frame) of a region's live points: a new model's origin, and with the previous
+// frame's candidate it overlaps most the region's motion over the last frame. None without depth.
+std::optional<Eigen::Vector3d> CoFusion::region_centroid(const std::vector<size_t>& pixels, const float* depth_m) const {
+  const int width = intrinsics_.width;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  size_t count = 0;
+  for (size_t i : pixels) {
+    const float d = depth_m[i];
+    if (!(d > 0.0f)) continue;
+    const double x = double(i % width), y = double(i / width);
+    sum += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
+    ++count;
+  }
+  if (count == 0) return std::nullopt;
+  return sum / double(count);
+}
+
+// Which outlier regions spawn a model: one that was a candidate in the previous frame too
+// (transient outliers, a blurred frame or a depth glitch, spawn nothing), while the camera is
+// steady, within the active-model limit. The others are this frame's candidates for the next.
+// Several objects starting to move at once each spawn.
+CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult& seg, const float* depth_m,
+                                          uint8_t outlier, const Model& bg, std::vector<uint8_t>& slots) {
+  const LifecycleParams& p = params_.lifecycle;
+  const size_t n = slots.size();
+  SpawnPlan plan;
+  plan.regions = outlier_regions(seg, outlier, slots);
+  int active_count = 0;
+  for (auto& m : models_) active_count += m->state == ModelState::kActive;
+  const bool camera_steady = !bg.tracking.failed && bg.motion.translation().norm() <= p.spawn_max_camera_translation_m &&
+                             rotation_deg(bg.motion) <= p.spawn_max_camera_rotation_deg &&
+                             frame_ - last_recovery_frame_ >= params_.relocalisation.settle_frames;
+  const std::vector<uint8_t> previous_candidates = std::move(spawn_candidate_);
+  const std::vector<std::optional<Eigen::Vector3d>> previous_centroids = std::move(spawn_candidate_centroids_);
+  spawn_candidate_.assign(n, 0);
+  spawn_candidate_centroids_.clear();
+  // Semantic mode: models come from instance masks only.
+  if (params_.semantic.mode == SegmentationMode::kSemantic) plan.regions.clear();
+  for (size_t r = 0; r < plan.regions.size(); ++r) {
+    const std::vector<size_t>& pixels = plan.regions[r];
+    const std::optional<Eigen::Vector3d> centroid = region_centroid(pixels, depth_m);
+    // Which previous candidate the region overlaps most gives its last position.
+    std::vector<size_t> overlap(previous_centroids.size() + 1, 0);
+    if (previous_candidates.size() == n)
+      for (size_t i : pixels) ++overlap[previous_candidates[i]];
+    size_t confirmed = 0, best_previous = 0;
+    for (size_t k = 1; k < overlap.size(); ++k) {
+      confirmed += overlap[k];
+      if (overlap[k] > overlap[best_previous]) best_previous = k;
+    }
+    const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(pixels.size());
+    if (frame_ >= p.warmup_frames && camera_steady && persistent &&
+        active_count + int(plan.spawns.size()) < p.max_active_models) {
+      plan.spawns.push_back({r, -1, centroid, best_previous > 0 ? previous_centroids[best_previous - 1] : std::nullopt});
+    } else if (spawn_candidate_centroids_.size() < 254) {  // a candidate for the next frame
+      spawn_candidate_centroids_.push_back(centroid);
+      for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidate_centroids_.size());
+    }
+  }
+  return plan;
+}
+
+// A spawning region first re-finds an object model that lost every pixel this frame (its tracking
+// slipped off the object, which now shows up as an outlier region), then re-activates an inactive
+// model that aligns with it; else it becomes a new model.
+void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector<size_t>& pixels,
+                                   const std::vector<int>& slot_pixels, CoFusionFrame& out,
+                                   std::vector<int>& spawned_slots) {
+  const LifecycleParams& p = params_.lifecycle;
+  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
+  const Eigen::Vector3d centroid = sp.centroid.value_or(Eigen::Vector3d::Zero());
+  char share[32];
+  std::snprintf(share, sizeof share, "%.1f%%", 100.0 * double(pixels.size()) / double(n));
+  // A new or re-activated model has no velocity yet; the region's centroid moved by `step` over
+  // the last frame, which is the first tracking's guess (an object entering fast, 3 cm per frame,
+  // moves out of the pixels its model is masked to, and from a zero guess the model stays put).
+  Eigen::Isometry3d velocity_guess = Eigen::Isometry3d::Identity();
+  if (sp.centroid && sp.previous_centroid) {
+    const Eigen::Vector3d step = *sp.centroid - *sp.previous_centroid;
+    if (step.norm() <= p.spawn_max_velocity_guess_m) velocity_guess = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
+  }
+  const auto lost = [&](const Model& m) { return m.slot >= 0 && slot_pixels[size_t(m.slot)] == 0; };
+  Model* reactivated = nullptr;
+  bool was_active = false;
+  if (p.reactivate)
+    for (const ModelState state : {ModelState::kActive, ModelState::kInactive}) {
+      for (auto& m : models_) {
+        // A model merged away this frame is inactive until the list is pruned: not a candidate.
+        if (m->state != state || m->id == 0 || m->slot == kRemovedSlot || (state == ModelState::kActive && !lost(*m))) continue;
+        if (try_reactivate(*m, sp.slot, centroid)) {
+          reactivated = m.get();
+          was_active = state == ModelState::kActive;
+          break;
+        }
+      }
+      if (reactivated) break;
+    }
+  if (reactivated) {
+    reactivated->last_motion = velocity_guess;
+    out.events.push_back("frame " + std::to_string(frame_) + ": " + (was_active ? "re-found model " : "re-activated model ") +
+                         std::to_string(reactivated->id) + " (" + share + " of the image)");
+    return;
+  }
+  Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
+  T_camera_model.translation() = centroid;
+  Model& m = create_model(sp.slot, T_world_camera_ * T_camera_model);
+  m.pixels = static_cast<int>(pixels.size());
+  m.last_motion = velocity_guess;
+  spawned_slots.push_back(sp.slot);
+  out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" + share +
+                       " of the image)");
+}
+
+// Pixel counts, where each object was last seen well, absence and retirement.
+void CoFusion::update_presence(const std::vector<int>& slot_pixels, CoFusionFrame& out) {
+  const LifecycleParams& p = params_.lifecycle;
+  const double n = double(intrinsics_.width) * intrinsics_.height;
+  unclaimed_fraction_ = double(slot_pixels[kUnclaimedSlot]) / n;
+  for (auto& m : models_) {
+    if (m->state != ModelState::kActive) continue;
+    m->pixels = slot_pixels[size_t(m->slot)];
+    if (m->id != 0 && m->tracked && !m->tracking.failed && double(m->pixels) >= p.spawn_min_area_fraction * n)
+      m->T_world_model_last_seen = m->surfels.T_world_model;
+    if (m->pixels > 0) {
+      m->last_frame = frame_;
+      m->unseen_frames = 0;
+    } else if (m->id != 0 && ++m->unseen_frames >= p.deactivate_after_frames) {
+      retire(*m, out);
+    }
+  }
+}
+
+// Instance masks (SemanticParams): an instance of a modelled class votes for the object model whose
+// footprint (its labelled pixels in the previous frame or in this segmentation) it overlaps with
+// IoU >= join_min_iou; in semantic/both modes its pixels then join that model. In those modes an
+// instance no model covers for confirm_frames consecutive frames spawns a model (no probation: it
+// need not move), its surfels removed from the older models as a motion spawn's are.
+void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken,
+                               const float* depth_m, CoFusionFrame& out, std::vector<int>& spawned_slots) {
+  const SemanticParams& sp = params_.semantic;
+  const size_t n = slots.size();
+  const bool modelling = sp.mode != SegmentationMode::kMotion;
+  const std::vector<MaskInstance> instances =
+      modelled_instances(*semantic_, sp, depth_m, size_t(sp.min_instance_area_fraction * double(n)));
+  std::vector<int> previous_pixels(kSlots, 0);
+  if (slots_.size() == n)
+    for (uint8_t s : slots_)
+      if (s < kSlots) ++previous_pixels[s];
+  const uint32_t pending = taken;  // slots of this frame's motion spawns
+  std::vector<const MaskInstance*> uncovered;
+  for (const MaskInstance& inst : instances) {
+    Model* best = nullptr;
+    double best_iou = 0;
+    for (auto& m : models_) {
+      if (m->id == 0 || m->state != ModelState::kActive || m->slot < 0) continue;
+      const auto slot = static_cast<uint8_t>(m->slot);
+      double v = iou(inst.pixels, slots, slot, size_t(slot_pixels[slot]));
+      if (slots_.size() == n) v = std::max(v, iou(inst.pixels, slots_, slot, size_t(previous_pixels[slot])));
+      if (v > best_iou) best_iou = v, best = m.get();
+    }
+    // A region that spawns a model from motion this frame (both mode) covers it too.
+    bool spawning = false;
+    for (int s = 0; s < kSlots && !spawning; ++s)
+      spawning = (pending & (1u << s)) && iou(inst.pixels, slots, uint8_t(s), size_t(slot_pixels[size_t(s)])) >= sp.join_min_iou;
+    if (spawning) continue;
+    if (best && best_iou >= sp.join_min_iou) {
+      best->class_votes.add(inst.class_name);
+      if (modelling)
+        for (size_t i : inst.pixels) {
+          if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
+          slots[i] = static_cast<uint8_t>(best->slot);
+          ++slot_pixels[size_t(best->slot)];
+        }
+    } else {
+      uncovered.push_back(&inst);
+    }
+  }
+  if (!modelling) return;
+  // Centroids of their points (camera frame): a new model's origin, and with the previous frame's the
+  // first tracking's guess (as for a motion spawn: objects carried in fast move out of their mask).
+  const int width = intrinsics_.width;
+  std::vector<std::optional<Eigen::Vector3d>> centroids;
+  for (const MaskInstance* inst : uncovered) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (size_t i : inst->pixels) {
+      const double d = depth_m[i], x = double(i % size_t(width)), y = double(i / size_t(width));
+      sum += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
+    }
+    centroids.push_back(sum / double(inst->pixels.size()));  // instances have pixels with depth
+  }
+  const std::vector<InstanceCandidates::Seen> seen = instance_candidates_.update(uncovered, centroids, n);
+  for (size_t k = 0; k < uncovered.size(); ++k) {
+    if (seen[k].frames < sp.confirm_frames || int(live_models().size()) >= params_.lifecycle.max_active_models) continue;
+    const int slot = free_slot(taken);
+    if (slot < 0) break;
+    taken |= 1u << slot;
+    for (size_t i : uncovered[k]->pixels) {
+      if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
+      slots[i] = static_cast<uint8_t>(slot);
+      ++slot_pixels[size_t(slot)];
+    }
+    Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
+    T_camera_model.translation() = *centroids[k];
+    Model& m = create_model(slot, T_world_camera_ * T_camera_model);
+    m.on_probation = false;
+    if (seen[k].previous_centroid) {
+      const Eigen::Vector3d step = *centroids[k] - *seen[k].previous_centroid;
+      if (step.norm() <= params_.lifecycle.spawn_max_velocity_guess_m)
+        m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
+    }
+    m.pixels = int(uncovered[k]->pixels.size());
+    m.class_votes.add(uncovered[k]->class_name);
+    spawned_slots.push_back(slot);
+    char share[32];
+    std::snprintf(share, sizeof share, "%.1f%%", 100.0 * double(uncovered[k]->pixels.size()) / double(n));
+    out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " from a " +
+                         uncovered[k]->class_name + " instance seen in " + std::to_string(seen[k].frames) + " frames (" + share +
+                         " of the image)");
+  }
+}
+
+// Non-rigid movers (LifecycleParams::rigidity_trial_frames): a young object model whose motion
+// leaves too much of its own label unexplained in too many frames of its trial is dropped; its
+// label's pixels become mover pixels.
+void CoFusion::drop_nonrigid(const std::vector<Model*>& order, const std::vector<uint8_t>& seg_labels,
+                             const std::vector<int>& labelled, const std::vector<int>& explained,
+                             std::vector<uint8_t>& slots, CoFusionFrame& out) {
+  const LifecycleParams& p = params_.lifecycle;
+  for (size_t k = 1; k < order.size(); ++k) {
+    Model& m = *order[k];
+    const double fraction = labelled[k] > 0 ? double(explained[k]) / double(labelled[k]) : 0.0;
+    if (m.state != ModelState::kActive || !m.tracked || frame_ - m.first_frame > p.rigidity_trial_frames) continue;
+    if (!m.tracking.failed && fraction >= p.rigid_min_explained_fraction) continue;
+    if (++m.rigidity_failures < p.rigidity_max_failures) continue;
+    for (size_t i = 0; i < slots.size(); ++i)
+      if (size_t(seg_labels[i]) == k || slots[i] == m.slot) slots[i] = kMoverSlot;
+    m.state = ModelState::kInactive;
+    m.slot = kRemovedSlot;
+    char why[96];
+    std::snprintf(why, sizeof why, "its motion explained %.0f%% of its pixels", 100.0 * fraction);
+    out.events.push_back("frame " + std::to_string(frame_) + ": dropped model " + std::to_string(m.id) +
+                         " (not rigid: " + (m.tracking.failed ? std::string("tracking failed") : std::string(why)) +
+                         " in " + std::to_string(m.rigidity_failures) + " frames of its first " +
+                         std::to_string(frame_ - m.first_frame) + ")");
+  }
+}
+
+// Mover regions (LifecycleParams::mover_min_overlap): the outlier components of this frame's
+// segmentation (components_) that overlap the previous frame's mover pixels enough; their pixels
+// become mover pixels. Returns per component whether it is a mover.
+std::vector<char> CoFusion::mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const {
+  const size_t width = size_t(intrinsics_.width);
+  std::vector<char> mover(components_.components.size(), 0);
+  if (slots_.size() != slots.size()) return mover;
+  std::vector<int64_t> overlap(mover.size(), 0);
+  for (const auto& run : components_.runs)
+    if (run.component >= 0 && run.value == outlier)
+      for (int x = run.x0; x < run.x1; ++x) overlap[size_t(run.component)] += slots_[size_t(run.y) * width + size_t(x)] == kMoverSlot;
+  for (size_t c = 0; c < mover.size(); ++c) {
+    const auto& info = components_.components[c];
+    mover[c] = info.value == outlier && overlap[c] > 0 &&
+               double(overlap[c]) >= params_.lifecycle.mover_min_overlap * double(info.pixels);
+  }
+  for (const auto& run : components_.runs)
+    if (run.component >= 0 && mover[size_t(run.component)])
+      for (int x = run.x0; x < run.x1; ++x) slots[size_t(run.y) * width + size_t(x)] = kMoverSlot;
+  return mover;
+}
+
+// Tries to align model m (inactive, or an object that lost every pixel this frame) with the
+// region labelled `slot`, tracked with the region's pixels only, from two starts: its last
+// orientation relative to the camera with its centre on the region's centroid, and where it was
+// last seen (an object that left and comes back the same way, or the camera looking back at it).
+// The start whose alignment has the most inliers wins if it passes the thresholds.
+bool CoFusion::try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera) {
+  const std::vector<Surfel> surfels = m.surfels.download(m.stream);
+  if (surfels.empty()) return false;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Surfel& s : surfels) centre += Eigen::Vector3d(s.px, s.py, s.pz);
+  centre /= double(surfels.size());
+  std::vector<Eigen::Isometry3d> starts;  // T_camera_model
+  starts.push_back(T_world_camera_.inverse() * m.surfels.T_world_model);
+  starts.back().translation() += centroid_camera - starts.back() * centre;
+  if (m.T_world_model_last_seen) starts.push_back(T_world_camera_.inverse() * *m.T_world_model_last_seen);
+
+  PredictionParams prediction;
+  prediction.min_confidence = params_.slam.fusion.stable_confidence;
+  const LifecycleParams& p = params_.lifecycle;
+  std::optional<std::pair<TrackingResult, Eigen::Isometry3d>> best;
+  for (const Eigen::Isometry3d& T_camera_model : starts) {
+    m.stream.run([&](gpu::CommandList& c) {
+      surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
+      motion_.mask_levels(c, live_.levels, m.masked, labels_, 1u << slot);
+    });
+    const TrackingResult r = m.tracker.track(m.stream, m.masked, m.prediction.levels, Eigen::Isometry3d::Identity());
+    if (r.failed || r.inlier_ratio < p.reactivate_min_inlier_ratio || r.icp_rms_m > p.reactivate_max_rms_m) continue;
+    if (!best || r.inlier_ratio > best->first.inlier_ratio) best.emplace(r, T_camera_model);
+  }
+  if (!best) return false;
+  const auto& [r, T_camera_model] = *best;
+  m.surfels.T_world_model = T_world_camera_ * r.T_reference_live.inverse() * T_camera_model;
+  m.state = ModelState::kActive;
+  m.slot = slot;
+  m.tracking = r;
+  m.tracked = true;
+  m.last_motion = Eigen::Isometry3d::Identity();
+  m.unseen_frames = 0;
+  m.last_frame = frame_;
+  return true;
+}
+
+// Moves every surfel of `gone` into `keep` (expressed in keep's frame) and deletes `gone`.
+void CoFusion::merge_into(Model& keep, Model& gone, CoFusionFrame& out, const std::string& why) {
+  gone.stream.wait_idle();
+  std::vector<Surfel> moved = gone.surfels.download(gone.stream);
+  transform_surfels(moved, keep.surfels.T_world_model.inverse() * gone.surfels.T_world_model);
+  std::vector<Surfel> all = keep.surfels.download(keep.stream);
+  all.insert(all.end(), moved.begin(), moved.end());
+  keep.surfels.upload(keep.stream, all);
+  keep.class_votes.merge(gone.class_votes);
+  out.events.push_back("frame " + std::to_string(frame_) + ": merged model " + std::to_string(gone.id) + " into " +
+                       std::to_string(keep.id) + " (" + why + ")");
+  gone.state = ModelState::kInactive;
+  gone.slot = kRemovedSlot;
+}
+
+void CoFusion::retire(Model& m, CoFusionFrame& out) {
+  m.stream.wait_idle();
+  const std::vector<Surfel> surfels = m.surfels.download(m.stream);
+  const auto stable = static_cast<unsigned>(std::count_if(surfels.begin(), surfels.end(), [&](const Surfel& s) {
+    return s.confidence >= params_.slam.fusion.stable_confidence;
+  }));
+  m.state = ModelState::kInactive;
+  const bool keep = stable >= params_.lifecycle.min_stable_surfels;
+  m.slot = keep ? kInactiveSlot : kRemovedSlot;
+  out.events.push_back("frame " + std::to_string(frame_) + ": model " + std::to_string(m.id) + " left the view (" +
+                       std::to_string(stable) + " stable surfels): " + (keep ? "inactive" : "deleted"));
+}
+
+}  // namespace cofusion::slam
