@@ -13,6 +13,7 @@
 #include <string>
 
 #include "common/error.h"
+#include "export/gltf_buffer.h"
 #include "export/surfel_selection.h"
 #include "io/atomic_file.h"
 
@@ -173,25 +174,8 @@ class GltfBuilder {
 
   int add_accessor(const void* bytes, std::size_t byte_count, int component_type, int type, std::size_t count,
                    bool normalized) {
-    while (data_.size() % 4 != 0) data_.push_back(0);
-    tinygltf::BufferView view;
-    view.buffer = 0;
-    view.byteOffset = data_.size();
-    view.byteLength = byte_count;
-    view.target = TINYGLTF_TARGET_ARRAY_BUFFER;
-    const auto* begin = static_cast<const unsigned char*>(bytes);
-    data_.insert(data_.end(), begin, begin + byte_count);
-    doc_.bufferViews.push_back(view);
-
-    tinygltf::Accessor accessor;
-    accessor.bufferView = static_cast<int>(doc_.bufferViews.size()) - 1;
-    accessor.byteOffset = 0;
-    accessor.componentType = component_type;
-    accessor.type = type;
-    accessor.count = count;
-    accessor.normalized = normalized;
-    doc_.accessors.push_back(std::move(accessor));
-    return static_cast<int>(doc_.accessors.size()) - 1;
+    return gltf::append_accessor(doc_, data_, bytes, byte_count, component_type, type, count,
+                                 TINYGLTF_TARGET_ARRAY_BUFFER, normalized);
   }
 
   tinygltf::Model doc_;
@@ -203,17 +187,6 @@ fs::path bin_path_for(const fs::path& gltf_path) {
   bin.replace_extension(".bin");
   if (bin == gltf_path) throw Error("cannot write " + gltf_path.string() + ": a .gltf file cannot be named *.bin");
   return bin;
-}
-
-void write_glb(tinygltf::Model doc, const fs::path& path) {
-  write_atomically(path, [&](const fs::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open " + tmp.string() + " for writing");
-    tinygltf::TinyGLTF writer;
-    writer.WriteGltfSceneToStream(&doc, out, /*prettyPrint=*/false, /*writeBinary=*/true);
-    out.close();  // tinygltf does not check its stream: do it here
-    if (!out) throw Error("write failed (disk full?)");
-  });
 }
 
 // tinygltf writes a .gltf and its .bin side by side, the .bin under the buffer's uri. To keep both
@@ -254,7 +227,7 @@ void write_gltf_plus_bin(tinygltf::Model doc, const fs::path& path) {
 
 void write_document(GltfBuilder& builder, const fs::path& path, GltfContainer container) {
   if (container == GltfContainer::Glb) {
-    write_glb(builder.finish(""), path);
+    gltf::write_glb(builder.finish(""), path);
   } else {
     write_gltf_plus_bin(builder.finish(bin_path_for(path).filename().string()), path);
   }

@@ -3,38 +3,20 @@
 #include <tiny_gltf.h>
 
 #include <cstring>
-#include <fstream>
 
 #include "common/error.h"
-#include "io/atomic_file.h"
+#include "export/gltf_buffer.h"
 
 namespace cofusion::synthetic {
 namespace {
 
-// Appends raw bytes to the single buffer and adds a buffer view + accessor for them.
+// Appends raw bytes to the single buffer with a buffer view + accessor for them.
 int add_accessor(tinygltf::Model& model, const void* data, size_t bytes, size_t count, int component_type, int type,
                  int target, const std::vector<double>& min = {}, const std::vector<double>& max = {}) {
-  auto& buffer = model.buffers[0].data;
-  while (buffer.size() % 4) buffer.push_back(0);  // accessor offsets must be aligned
-  const size_t offset = buffer.size();
-  buffer.resize(offset + bytes);
-  if (bytes) std::memcpy(buffer.data() + offset, data, bytes);
-  tinygltf::BufferView view;
-  view.buffer = 0;
-  view.byteOffset = offset;
-  view.byteLength = bytes;
-  view.target = target;
-  model.bufferViews.push_back(view);
-  tinygltf::Accessor acc;
-  acc.bufferView = static_cast<int>(model.bufferViews.size() - 1);
-  acc.byteOffset = 0;
-  acc.componentType = component_type;
-  acc.count = count;
-  acc.type = type;
-  acc.minValues = min;
-  acc.maxValues = max;
-  model.accessors.push_back(acc);
-  return static_cast<int>(model.accessors.size() - 1);
+  const int index = gltf::append_accessor(model, model.buffers[0].data, data, bytes, component_type, type, count, target);
+  model.accessors[size_t(index)].minValues = min;
+  model.accessors[size_t(index)].maxValues = max;
+  return index;
 }
 
 std::vector<float> flatten(const std::vector<Eigen::Vector3f>& v) {
@@ -61,17 +43,6 @@ void read_accessor(const tinygltf::Model& model, int index, int want_type, int w
   if (n) std::memcpy(out.data(), buf.data() + begin, n * sizeof(T));
 }
 
-void write_model(const tinygltf::Model& model, const std::filesystem::path& path) {
-  write_atomically(path, [&](const std::filesystem::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open " + tmp.string() + " for writing");
-    tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToStream(&model, out, false, true)) throw Error("glTF serialisation failed");
-    out.close();
-    if (!out) throw Error("write failed (disk full?)");
-  });
-}
-
 }  // namespace
 
 void write_glb(const Mesh& mesh, const std::string& name, const std::filesystem::path& path) {
@@ -93,7 +64,7 @@ void write_glb(const Mesh& mesh, const std::string& name, const std::filesystem:
     model.scenes.push_back(scene);
     model.defaultScene = 0;
     model.buffers.clear();
-    write_model(model, path);
+    gltf::write_glb(model, path);
     return;
   }
   const auto positions = flatten(mesh.positions), normals = flatten(mesh.normals), colors = flatten(mesh.colors);
@@ -127,7 +98,7 @@ void write_glb(const Mesh& mesh, const std::string& name, const std::filesystem:
   scene.nodes.push_back(0);
   model.scenes.push_back(scene);
   model.defaultScene = 0;
-  write_model(model, path);
+  gltf::write_glb(model, path);
 }
 
 Mesh read_glb(const std::filesystem::path& path) {
