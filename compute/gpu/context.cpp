@@ -134,6 +134,83 @@ std::vector<DeviceInfo> Context::list_devices() {
   return out;
 }
 
+namespace {
+
+// The device `--device` names (an index or a name substring), else the best usable one by type
+// (a discrete GPU before an integrated one before a CPU implementation).
+uint32_t choose_device(const vk::raii::PhysicalDevices& devices, const std::vector<DeviceInfo>& infos,
+                       const std::string& sel) {
+  if (!sel.empty() && std::all_of(sel.begin(), sel.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+    const uint32_t idx = static_cast<uint32_t>(std::stoul(sel));
+    if (idx >= infos.size())
+      throw Error("--device " + sel + ": only " + std::to_string(infos.size()) + " Vulkan device(s) present");
+    return idx;
+  }
+  if (!sel.empty()) {
+    for (const auto& d : infos)
+      if (lower(d.name).find(lower(sel)) != std::string::npos) return d.index;
+    std::string names;
+    for (const auto& d : infos) names += (names.empty() ? "" : ", ") + d.name;
+    throw Error("--device '" + sel + "' matches no Vulkan device (present: " + names + ")");
+  }
+  std::optional<uint32_t> chosen;
+  int best_rank = -1;
+  for (const auto& d : infos) {
+    if (!d.usable) continue;
+    const int rank = device_type_rank(devices[d.index].getProperties().deviceType);
+    if (rank > best_rank) {
+      best_rank = rank;
+      chosen = d.index;
+    }
+  }
+  if (!chosen) {
+    std::string why;
+    for (const auto& d : infos) why += (why.empty() ? "" : "; ") + d.name + ": " + d.why_unusable;
+    throw Error("no usable Vulkan device (" + why + ")");
+  }
+  return *chosen;
+}
+
+// Limits, subgroup operations, 64-bit and float atomics and memory heaps of `device`.
+DeviceFeatures query_features(const vk::raii::PhysicalDevice& device) {
+  DeviceFeatures f;
+  const auto props = device.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceSubgroupProperties>();
+  const auto& limits = props.get<vk::PhysicalDeviceProperties2>().properties.limits;
+  const auto& subgroup = props.get<vk::PhysicalDeviceSubgroupProperties>();
+  const auto supported = device.getFeatures2<vk::PhysicalDeviceFeatures2, vk::PhysicalDeviceVulkan12Features>();
+  const auto& f10 = supported.get<vk::PhysicalDeviceFeatures2>().features;
+  const auto& f12 = supported.get<vk::PhysicalDeviceVulkan12Features>();
+  f.buffer_device_address = f12.bufferDeviceAddress;
+  f.shader_int64 = f10.shaderInt64;
+  f.buffer_int64_atomics = f12.shaderBufferInt64Atomics;
+  f.subgroup_size = subgroup.subgroupSize;
+  f.subgroup_arithmetic = (subgroup.supportedOperations & vk::SubgroupFeatureFlagBits::eArithmetic) &&
+                          (subgroup.supportedStages & vk::ShaderStageFlagBits::eCompute);
+  f.max_storage_buffer_range = limits.maxStorageBufferRange;
+  f.max_compute_workgroup_invocations = limits.maxComputeWorkGroupInvocations;
+  f.timestamp_period_ns = limits.timestampPeriod;
+  f.max_texel_buffer_elements = limits.maxTexelBufferElements;
+  const auto maint3 = device.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceMaintenance3Properties>();
+  f.max_memory_allocation_size = maint3.get<vk::PhysicalDeviceMaintenance3Properties>().maxMemoryAllocationSize;
+  const auto memory = device.getMemoryProperties();
+  for (uint32_t h = 0; h < memory.memoryHeapCount; ++h)
+    if (memory.memoryHeaps[h].flags & vk::MemoryHeapFlagBits::eDeviceLocal)
+      f.device_local_heap_bytes = std::max<uint64_t>(f.device_local_heap_bytes, memory.memoryHeaps[h].size);
+  for (uint32_t t = 0; t < memory.memoryTypeCount; ++t) {
+    const auto flags = memory.memoryTypes[t].propertyFlags;
+    if ((flags & vk::MemoryPropertyFlagBits::eDeviceLocal) && (flags & vk::MemoryPropertyFlagBits::eHostVisible) &&
+        (flags & vk::MemoryPropertyFlagBits::eHostCoherent))
+      f.device_local_memory_is_host_visible = true;
+  }
+  if (has_extension(device.enumerateDeviceExtensionProperties(), VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME)) {
+    const auto fa = device.getFeatures2<vk::PhysicalDeviceFeatures2, vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT>();
+    f.shader_float_atomic_add = fa.get<vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT>().shaderBufferFloat32AtomicAdd;
+  }
+  return f;
+}
+
+}  // namespace
+
 Context::Context(const ContextOptions& options) : options_(options) {
   instance_ = make_instance(loader_, options_.validation, &debug_utils_, options_.instance_extensions);
   if (options_.validation && debug_utils_) {
@@ -147,94 +224,21 @@ Context::Context(const ContextOptions& options) : options_(options) {
         .pUserData = this};
     messenger_ = vk::raii::DebugUtilsMessengerEXT(instance_, info);
   }
-
-  // ---- choose the physical device
   vk::raii::PhysicalDevices devices(instance_);
   if (devices.empty()) throw Error("no Vulkan device found (Debian: apt-get install mesa-vulkan-drivers)");
   std::vector<DeviceInfo> infos;
   for (uint32_t i = 0; i < devices.size(); ++i) infos.push_back(describe_device(devices[i], i));
-  std::optional<uint32_t> chosen;
-  const std::string& sel = options_.device;
-  if (!sel.empty() && std::all_of(sel.begin(), sel.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
-    const uint32_t idx = static_cast<uint32_t>(std::stoul(sel));
-    if (idx >= infos.size())
-      throw Error("--device " + sel + ": only " + std::to_string(infos.size()) + " Vulkan device(s) present");
-    chosen = idx;
-  } else if (!sel.empty()) {
-    for (const auto& d : infos)
-      if (lower(d.name).find(lower(sel)) != std::string::npos) {
-        chosen = d.index;
-        break;
-      }
-    if (!chosen) {
-      std::string names;
-      for (const auto& d : infos) names += (names.empty() ? "" : ", ") + d.name;
-      throw Error("--device '" + sel + "' matches no Vulkan device (present: " + names + ")");
-    }
-  } else {
-    int best_rank = -1;
-    for (const auto& d : infos) {
-      if (!d.usable) continue;
-      const int rank = device_type_rank(devices[d.index].getProperties().deviceType);
-      if (rank > best_rank) {
-        best_rank = rank;
-        chosen = d.index;
-      }
-    }
-    if (!chosen) {
-      std::string why;
-      for (const auto& d : infos) why += (why.empty() ? "" : "; ") + d.name + ": " + d.why_unusable;
-      throw Error("no usable Vulkan device (" + why + ")");
-    }
-  }
-  info_ = infos[*chosen];
+  const uint32_t chosen = choose_device(devices, infos, options_.device);
+  info_ = infos[chosen];
   if (!info_.usable) throw Error("Vulkan device '" + info_.name + "' cannot be used: " + info_.why_unusable);
-  physical_device_ = std::move(devices[*chosen]);
+  physical_device_ = std::move(devices[chosen]);
+  features_ = query_features(physical_device_);
+  create_device();
+}
 
-  // ---- features we use when present
-  const auto props = physical_device_.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceSubgroupProperties>();
-  const auto& limits = props.get<vk::PhysicalDeviceProperties2>().properties.limits;
-  const auto& subgroup = props.get<vk::PhysicalDeviceSubgroupProperties>();
-  const auto supported = physical_device_.getFeatures2<vk::PhysicalDeviceFeatures2, vk::PhysicalDeviceVulkan11Features,
-                                                       vk::PhysicalDeviceVulkan12Features,
-                                                       vk::PhysicalDeviceVulkan13Features>();
-  const auto& f10 = supported.get<vk::PhysicalDeviceFeatures2>().features;
-  const auto& f12 = supported.get<vk::PhysicalDeviceVulkan12Features>();
-  const auto extensions = physical_device_.enumerateDeviceExtensionProperties();
-  const bool has_float_atomics = has_extension(extensions, VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
-
-  features_.buffer_device_address = f12.bufferDeviceAddress;
-  features_.shader_int64 = f10.shaderInt64;
-  features_.buffer_int64_atomics = f12.shaderBufferInt64Atomics;
-  features_.subgroup_size = subgroup.subgroupSize;
-  features_.subgroup_arithmetic =
-      (subgroup.supportedOperations & vk::SubgroupFeatureFlagBits::eArithmetic) &&
-      (subgroup.supportedStages & vk::ShaderStageFlagBits::eCompute);
-  features_.max_storage_buffer_range = limits.maxStorageBufferRange;
-  features_.max_compute_workgroup_invocations = limits.maxComputeWorkGroupInvocations;
-  features_.timestamp_period_ns = limits.timestampPeriod;
-  features_.max_texel_buffer_elements = limits.maxTexelBufferElements;
-  const auto maint3 = physical_device_.getProperties2<vk::PhysicalDeviceProperties2, vk::PhysicalDeviceMaintenance3Properties>();
-  features_.max_memory_allocation_size = maint3.get<vk::PhysicalDeviceMaintenance3Properties>().maxMemoryAllocationSize;
-  const auto memory = physical_device_.getMemoryProperties();
-  for (uint32_t h = 0; h < memory.memoryHeapCount; ++h)
-    if (memory.memoryHeaps[h].flags & vk::MemoryHeapFlagBits::eDeviceLocal)
-      features_.device_local_heap_bytes = std::max<uint64_t>(features_.device_local_heap_bytes, memory.memoryHeaps[h].size);
-  for (uint32_t t = 0; t < memory.memoryTypeCount; ++t) {
-    const auto flags = memory.memoryTypes[t].propertyFlags;
-    if ((flags & vk::MemoryPropertyFlagBits::eDeviceLocal) && (flags & vk::MemoryPropertyFlagBits::eHostVisible) &&
-        (flags & vk::MemoryPropertyFlagBits::eHostCoherent))
-      features_.device_local_memory_is_host_visible = true;
-  }
-
-  vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT float_atomics{};
-  if (has_float_atomics) {
-    const auto fa = physical_device_.getFeatures2<vk::PhysicalDeviceFeatures2, vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT>();
-    features_.shader_float_atomic_add = fa.get<vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT>().shaderBufferFloat32AtomicAdd;
-    float_atomics.shaderBufferFloat32AtomicAdd = features_.shader_float_atomic_add;
-  }
-
-  // ---- logical device with every queue of the compute family
+// The logical device with every queue of the compute family (at most 8) and the features used
+// where present.
+void Context::create_device() {
   queue_family_ = *pick_compute_family(physical_device_);
   const auto families = physical_device_.getQueueFamilyProperties();
   const uint32_t queue_count = std::min<uint32_t>(families[queue_family_].queueCount, 8);
@@ -244,6 +248,9 @@ Context::Context(const ContextOptions& options) : options_(options) {
                                        .queueCount = queue_count,
                                        .pQueuePriorities = priorities.data()};
 
+  const auto supported = physical_device_.getFeatures2<vk::PhysicalDeviceFeatures2, vk::PhysicalDeviceVulkan12Features,
+                                                       vk::PhysicalDeviceVulkan13Features>();
+  const auto& f12 = supported.get<vk::PhysicalDeviceVulkan12Features>();
   vk::PhysicalDeviceFeatures2 enable10{};
   enable10.features.shaderInt64 = features_.shader_int64;
   vk::PhysicalDeviceVulkan11Features enable11{};
@@ -259,8 +266,12 @@ Context::Context(const ContextOptions& options) : options_(options) {
   enable10.pNext = &enable11;
   enable11.pNext = &enable12;
   enable12.pNext = &enable13;
-  if (has_float_atomics) enable13.pNext = &float_atomics;
 
+  const auto extensions = physical_device_.enumerateDeviceExtensionProperties();
+  const bool has_float_atomics = has_extension(extensions, VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
+  vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT float_atomics{};
+  float_atomics.shaderBufferFloat32AtomicAdd = features_.shader_float_atomic_add;
+  if (has_float_atomics) enable13.pNext = &float_atomics;
   std::vector<const char*> device_extensions{VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
   if (has_float_atomics) device_extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
   for (const auto& name : options_.device_extensions) {

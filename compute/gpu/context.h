@@ -122,6 +122,7 @@ class Context {
   size_t validation_error_count() const { return validation_errors_.load(); }
 
  private:
+  void create_device();
   static VKAPI_ATTR VkBool32 VKAPI_CALL debug_callback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                                        VkDebugUtilsMessageTypeFlagsEXT types,
                                                        const VkDebugUtilsMessengerCallbackDataEXT* data,
