@@ -162,25 +162,21 @@ Renderer::Renderer(const SceneDescription& scene)
   }
 }
 
-RenderedFrame Renderer::render(const RenderRequest& req) const {
-  const Intrinsics& K = intrinsics_;
-  const int W = K.width, H = K.height;
-  if (req.T_world_objects.size() != object_parts_.size())
-    throw Error("synthetic render: " + std::to_string(req.T_world_objects.size()) + " object poses for " +
-                std::to_string(object_parts_.size()) + " objects");
-  if (!req.T_object_parts.empty() && req.T_object_parts.size() != object_parts_.size())
-    throw Error("synthetic render: part poses for " + std::to_string(req.T_object_parts.size()) + " objects, not " +
-                std::to_string(object_parts_.size()));
-  if (req.covered) return render_covered(req);
+namespace {
 
-  const Eigen::Vector3d to_light_world = -light_.direction_world.normalized();
+// Every primitive visible in this frame (background, and the parts of the objects that are in the
+// scene now, each at its object's pose and its own pose relative to the object), prepared.
+std::vector<FramePrimitive> frame_primitives(const std::vector<Primitive>& background,
+                                             const std::vector<std::vector<Primitive>>& object_parts,
+                                             const RenderRequest& req, const Intrinsics& K,
+                                             const Eigen::Vector3d& to_light_world) {
   std::vector<FramePrimitive> prims;
-  prims.reserve(background_.size() + object_parts_.size());
-  for (const Primitive& p : background_)
+  prims.reserve(background.size() + object_parts.size());
+  for (const Primitive& p : background)
     prims.push_back(prepare(p, p.T_world_primitive, p.T_world_primitive, req.T_world_camera, K, to_light_world));
-  for (size_t k = 0; k < object_parts_.size(); ++k) {
+  for (size_t k = 0; k < object_parts.size(); ++k) {
     if (!req.T_world_objects[k]) continue;
-    const std::vector<Primitive>& parts = object_parts_[k];
+    const std::vector<Primitive>& parts = object_parts[k];
     const std::vector<Pose>* T_object_parts = req.T_object_parts.empty() ? nullptr : &req.T_object_parts[k];
     if (T_object_parts && !T_object_parts->empty() && T_object_parts->size() != parts.size())
       throw Error("synthetic render: " + std::to_string(T_object_parts->size()) + " part poses for object " +
@@ -191,160 +187,212 @@ RenderedFrame Renderer::render(const RenderRequest& req) const {
                               to_light_world));
     }
   }
+  return prims;
+}
 
-  RenderedFrame out;
-  out.rgb.create(H, W, CV_8UC3);
-  out.depth_true_m.create(H, W, CV_32FC1);
-  out.instance_ids.create(H, W, CV_16UC1);
-  out.cos_incidence.create(H, W, CV_32FC1);
-  cv::Mat& cos_incidence = out.cos_incidence;
-  if (req.surface_points) {
-    out.points_world.create(H, W, CV_32FC3);
-    out.points_object.create(H, W, CV_32FC3);
+// The nearest primitive pixel (u, v)'s ray meets, and the hit's depth (null: none).
+const FramePrimitive* cast_ray(const std::vector<const FramePrimitive*>& active, int u, float vf, float& t_best) {
+  const float uf = static_cast<float>(u);
+  t_best = std::numeric_limits<float>::infinity();
+  const FramePrimitive* best = nullptr;
+  for (const FramePrimitive* f : active) {
+    if (u < f->u0 || u > f->u1) continue;
+    const Eigen::Vector3f d = f->d0 + uf * f->du + vf * f->dv;
+    float t;
+    if (intersect(f->shape, f->origin, d, 1e-4f, t_best, t)) {
+      t_best = t;
+      best = f;
+    }
+  }
+  return best;
+}
+
+// Noise-free rendering: colour (textured, Lambert-shaded, with the sensor's colour noise), true
+// depth, instance ids, the cosine of incidence and, when asked, the surface points.
+class RayCaster {
+ public:
+  RayCaster(const RenderRequest& req, const Intrinsics& K, float ambient, RenderedFrame& out)
+      : req_(req), K_(K), ambient_(ambient), out_(out), color_sigma_(static_cast<float>(req.noise.color_sigma)),
+        color_key_(frame_key(req.seed, req.frame_index, kColorStream)),
+        R_world_camera_(req.T_world_camera.linear().cast<float>()),
+        t_world_camera_(req.T_world_camera.translation().cast<float>()) {
+    const int W = K.width, H = K.height;
+    out.rgb.create(H, W, CV_8UC3);
+    out.depth_true_m.create(H, W, CV_32FC1);
+    out.instance_ids.create(H, W, CV_16UC1);
+    out.cos_incidence.create(H, W, CV_32FC1);
+    if (req.surface_points) {
+      out.points_world.create(H, W, CV_32FC3);
+      out.points_object.create(H, W, CV_32FC3);
+    }
   }
 
-  const float ambient = static_cast<float>(light_.ambient);
-  const float color_sigma = static_cast<float>(req.noise.color_sigma);
-  const uint64_t color_key = frame_key(req.seed, req.frame_index, kColorStream);
-  const Eigen::Matrix3f R_world_camera = req.T_world_camera.linear().cast<float>();
-  const Eigen::Vector3f t_world_camera = req.T_world_camera.translation().cast<float>();
-  const float fx = static_cast<float>(K.fx), fy = static_cast<float>(K.fy);
-  const float cx = static_cast<float>(K.cx), cy = static_cast<float>(K.cy);
-
-  tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
-    std::vector<const FramePrimitive*> active;
-    active.reserve(prims.size());
-    for (int v = rows.begin(); v < rows.end(); ++v) {
-      active.clear();
-      for (const FramePrimitive& f : prims)
-        if (v >= f.v0 && v <= f.v1 && f.u0 <= f.u1) active.push_back(&f);
-      auto* rgb = out.rgb.ptr<cv::Vec3b>(v);
-      auto* depth = out.depth_true_m.ptr<float>(v);
-      auto* ids = out.instance_ids.ptr<uint16_t>(v);
-      auto* cosines = cos_incidence.ptr<float>(v);
-      const float vf = static_cast<float>(v);
-      for (int u = 0; u < W; ++u) {
-        const float uf = static_cast<float>(u);
-        float t_best = std::numeric_limits<float>::infinity();
-        const FramePrimitive* best = nullptr;
-        for (const FramePrimitive* f : active) {
-          if (u < f->u0 || u > f->u1) continue;
-          const Eigen::Vector3f d = f->d0 + uf * f->du + vf * f->dv;
-          float t;
-          if (intersect(f->shape, f->origin, d, 1e-4f, t_best, t)) {
-            t_best = t;
-            best = f;
-          }
-        }
-        if (!best) {
-          rgb[u] = cv::Vec3b(0, 0, 0);
-          depth[u] = 0;
-          ids[u] = 0;
-          cosines[u] = 0;
-          if (req.surface_points) {
-            out.points_world.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(0, 0, 0);
-            out.points_object.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(0, 0, 0);
-          }
-          continue;
-        }
-        const Eigen::Vector3f d = best->d0 + uf * best->du + vf * best->dv;
-        const Eigen::Vector3f p = best->origin + t_best * d;
-        Eigen::Vector3f n = Eigen::Vector3f::UnitZ();
-        int flat_axis = -1;
-        surface_at(best->shape, p, n, flat_axis);
-        const float cos_ray = std::abs(n.dot(d)) / d.norm();
-        const float shade = ambient + (1.0f - ambient) * std::max(0.0f, n.dot(best->to_light));
-        Eigen::Vector3f c = texture_color(texture_of(*best->primitive, p, flat_axis), p, flat_axis) * shade;
-        if (color_sigma > 0) {
-          const uint64_t bits = pixel_bits(color_key, static_cast<uint64_t>(v) * W + u);
-          c += color_sigma * Eigen::Vector3f(triangular(static_cast<uint32_t>(bits)),
-                                             triangular(static_cast<uint32_t>(bits >> 20)),
-                                             triangular(static_cast<uint32_t>(bits >> 40)));
-        }
-        for (int ch = 0; ch < 3; ++ch) rgb[u][ch] = static_cast<uint8_t>(std::clamp(c[ch], 0.0f, 255.0f) + 0.5f);
-        depth[u] = t_best;
-        ids[u] = static_cast<uint16_t>(best->primitive->instance_id);
-        cosines[u] = cos_ray;
-        if (req.surface_points) {
-          const Eigen::Vector3f p_camera(t_best * (uf - cx) / fx, t_best * (vf - cy) / fy, t_best);
-          const Eigen::Vector3f pw = R_world_camera * p_camera + t_world_camera;
-          out.points_world.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(pw.x(), pw.y(), pw.z());
-          const Eigen::Vector3f po = best->R_owner_primitive * p + best->t_owner_primitive;
-          out.points_object.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(po.x(), po.y(), po.z());
+  void render(const std::vector<FramePrimitive>& prims) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, K_.height, 4), [&](const tbb::blocked_range<int>& rows) {
+      std::vector<const FramePrimitive*> active;
+      active.reserve(prims.size());
+      for (int v = rows.begin(); v < rows.end(); ++v) {
+        active.clear();
+        for (const FramePrimitive& f : prims)
+          if (v >= f.v0 && v <= f.v1 && f.u0 <= f.u1) active.push_back(&f);
+        for (int u = 0; u < K_.width; ++u) {
+          float t = 0;
+          const FramePrimitive* hit = cast_ray(active, u, static_cast<float>(v), t);
+          if (hit) shade(*hit, u, v, t);
+          else empty(u, v);
         }
       }
-    }
-  });
+    });
+  }
 
-  // Sensor noise on depth (see noise.h for the model and its order of effects).
-  const KinectNoiseParams& noise = req.noise;
-  if (depth_noise_off(noise)) {
+ private:
+  void empty(int u, int v) {
+    out_.rgb.ptr<cv::Vec3b>(v)[u] = cv::Vec3b(0, 0, 0);
+    out_.depth_true_m.ptr<float>(v)[u] = 0;
+    out_.instance_ids.ptr<uint16_t>(v)[u] = 0;
+    out_.cos_incidence.ptr<float>(v)[u] = 0;
+    if (req_.surface_points) {
+      out_.points_world.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(0, 0, 0);
+      out_.points_object.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(0, 0, 0);
+    }
+  }
+
+  void shade(const FramePrimitive& hit, int u, int v, float t) {
+    const float uf = static_cast<float>(u), vf = static_cast<float>(v);
+    const Eigen::Vector3f d = hit.d0 + uf * hit.du + vf * hit.dv;
+    const Eigen::Vector3f p = hit.origin + t * d;
+    Eigen::Vector3f n = Eigen::Vector3f::UnitZ();
+    int flat_axis = -1;
+    surface_at(hit.shape, p, n, flat_axis);
+    const float shading = ambient_ + (1.0f - ambient_) * std::max(0.0f, n.dot(hit.to_light));
+    Eigen::Vector3f c = texture_color(texture_of(*hit.primitive, p, flat_axis), p, flat_axis) * shading;
+    if (color_sigma_ > 0) {
+      const uint64_t bits = pixel_bits(color_key_, static_cast<uint64_t>(v) * K_.width + u);
+      c += color_sigma_ * Eigen::Vector3f(triangular(static_cast<uint32_t>(bits)), triangular(static_cast<uint32_t>(bits >> 20)),
+                                          triangular(static_cast<uint32_t>(bits >> 40)));
+    }
+    cv::Vec3b& rgb = out_.rgb.ptr<cv::Vec3b>(v)[u];
+    for (int ch = 0; ch < 3; ++ch) rgb[ch] = static_cast<uint8_t>(std::clamp(c[ch], 0.0f, 255.0f) + 0.5f);
+    out_.depth_true_m.ptr<float>(v)[u] = t;
+    out_.instance_ids.ptr<uint16_t>(v)[u] = static_cast<uint16_t>(hit.primitive->instance_id);
+    out_.cos_incidence.ptr<float>(v)[u] = std::abs(n.dot(d)) / d.norm();
+    if (req_.surface_points) {
+      const Eigen::Vector3f p_camera(t * (uf - float(K_.cx)) / float(K_.fx), t * (vf - float(K_.cy)) / float(K_.fy), t);
+      const Eigen::Vector3f pw = R_world_camera_ * p_camera + t_world_camera_;
+      out_.points_world.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(pw.x(), pw.y(), pw.z());
+      const Eigen::Vector3f po = hit.R_owner_primitive * p + hit.t_owner_primitive;
+      out_.points_object.ptr<cv::Vec3f>(v)[u] = cv::Vec3f(po.x(), po.y(), po.z());
+    }
+  }
+
+  const RenderRequest& req_;
+  const Intrinsics& K_;
+  const float ambient_;
+  RenderedFrame& out_;
+  const float color_sigma_;
+  const uint64_t color_key_;
+  const Eigen::Matrix3f R_world_camera_;
+  const Eigen::Vector3f t_world_camera_;
+};
+
+// Sensor noise on depth (see noise.h for the model and its order of effects): a lateral shift,
+// readings dropped beyond the incidence limit and near depth edges, axial noise, quantisation and
+// the range limits.
+class DepthNoise {
+ public:
+  DepthNoise(const RenderRequest& req, const Intrinsics& K, const std::vector<float>& normal_table)
+      : noise_(req.noise), K_(K), normal_table_(normal_table), lateral_(noise_.lateral_sigma_px),
+        lateral_key_(frame_key(req.seed, req.frame_index, kLateralStream)),
+        axial_key_(frame_key(req.seed, req.frame_index, kAxialStream)),
+        cos_max_(noise_.max_incidence_deg >= 90 ? -1.0f
+                                                : static_cast<float>(std::cos(noise_.max_incidence_deg * std::numbers::pi / 180))),
+        edge_r_(static_cast<int>(std::floor(noise_.edge_radius_px))),
+        edges_(noise_.edge_drop_probability > 0 && edge_r_ > 0),
+        min_z_(static_cast<float>(noise_.min_depth_m)),
+        max_z_(noise_.max_depth_m > 0 ? static_cast<float>(noise_.max_depth_m) : std::numeric_limits<float>::infinity()) {}
+
+  void apply(RenderedFrame& out) const {
+    out.depth_m.create(K_.height, K_.width, CV_32FC1);
+    tbb::parallel_for(tbb::blocked_range<int>(0, K_.height, 4), [&](const tbb::blocked_range<int>& rows) {
+      for (int v = rows.begin(); v < rows.end(); ++v) {
+        float* noisy = out.depth_m.ptr<float>(v);
+        for (int u = 0; u < K_.width; ++u) noisy[u] = noisy_depth(out, u, v);
+      }
+    });
+  }
+
+ private:
+  float noisy_depth(const RenderedFrame& out, int u, int v) const {
+    const int W = K_.width, H = K_.height;
+    const uint64_t index = static_cast<uint64_t>(v) * W + u;
+    const uint64_t lbits = pixel_bits(lateral_key_, index);
+    int su = u, sv = v;
+    if (noise_.lateral_sigma_px > 0) {
+      // Bits 0-15 and 16-31 pick the shifts, 32-63 the edge drop: no bit is used twice.
+      su = std::clamp(u + lateral_.shift(unit_float(static_cast<uint32_t>(lbits & 0xFFFFu) << 16)), 0, W - 1);
+      sv = std::clamp(v + lateral_.shift(unit_float(static_cast<uint32_t>((lbits >> 16) & 0xFFFFu) << 16)), 0, H - 1);
+    }
+    float z = out.depth_true_m.ptr<float>(sv)[su];
+    const float cos_ray = out.cos_incidence.ptr<float>(sv)[su];
+    if (z <= 0 || cos_ray < cos_max_) return 0;
+    if (edges_ && unit_float(static_cast<uint32_t>(lbits >> 32)) < float(noise_.edge_drop_probability) &&
+        near_depth_edge(out.depth_true_m, su, sv, z))
+      return 0;
+    if (noise_.axial) {
+      // Capped below 90 degrees, where the model's sigma diverges (only reachable with the
+      // incidence cut-off disabled).
+      const float theta = std::min(fast_acos01(std::min(1.0f, cos_ray)), 1.55f);
+      z += noise_.axial_sigma_m(z, theta) * normal_table_[pixel_bits(axial_key_, index) >> (64 - kNormalBits)];
+    }
+    z = noise_.quantize(z, static_cast<float>(K_.fx));
+    return (z >= min_z_ && z <= max_z_ && z > 0) ? z : 0.0f;
+  }
+
+  // Whether a depth within edge_radius_px of (su, sv) differs from z by more than edge_jump_ratio.
+  bool near_depth_edge(const cv::Mat& depth_true_m, int su, int sv, float z) const {
+    const float ratio = static_cast<float>(noise_.edge_jump_ratio);
+    for (int dv = -edge_r_; dv <= edge_r_; ++dv) {
+      const int nv = sv + dv;
+      if (nv < 0 || nv >= K_.height) continue;
+      const float* row = depth_true_m.ptr<float>(nv);
+      for (int du = -edge_r_; du <= edge_r_; ++du) {
+        const int nu = su + du;
+        if (nu >= 0 && nu < K_.width && std::abs(row[nu] - z) > ratio * z) return true;
+      }
+    }
+    return false;
+  }
+
+  const KinectNoiseParams& noise_;
+  const Intrinsics& K_;
+  const std::vector<float>& normal_table_;
+  const LateralTable lateral_;
+  const uint64_t lateral_key_, axial_key_;
+  const float cos_max_;
+  const int edge_r_;
+  const bool edges_;
+  const float min_z_, max_z_;
+};
+
+}  // namespace
+
+RenderedFrame Renderer::render(const RenderRequest& req) const {
+  if (req.T_world_objects.size() != object_parts_.size())
+    throw Error("synthetic render: " + std::to_string(req.T_world_objects.size()) + " object poses for " +
+                std::to_string(object_parts_.size()) + " objects");
+  if (!req.T_object_parts.empty() && req.T_object_parts.size() != object_parts_.size())
+    throw Error("synthetic render: part poses for " + std::to_string(req.T_object_parts.size()) + " objects, not " +
+                std::to_string(object_parts_.size()));
+  if (req.covered) return render_covered(req);
+  const Eigen::Vector3d to_light_world = -light_.direction_world.normalized();
+  const std::vector<FramePrimitive> prims = frame_primitives(background_, object_parts_, req, intrinsics_, to_light_world);
+  RenderedFrame out;
+  RayCaster(req, intrinsics_, static_cast<float>(light_.ambient), out).render(prims);
+  if (depth_noise_off(req.noise)) {
     out.depth_m = out.depth_true_m.clone();
     return out;
   }
-  out.depth_m.create(H, W, CV_32FC1);
-  const LateralTable lateral(noise.lateral_sigma_px);
-  const uint64_t lateral_key = frame_key(req.seed, req.frame_index, kLateralStream);
-  const uint64_t axial_key = frame_key(req.seed, req.frame_index, kAxialStream);
-  const float cos_max = noise.max_incidence_deg >= 90
-                            ? -1.0f
-                            : static_cast<float>(std::cos(noise.max_incidence_deg * std::numbers::pi / 180));
-  const int edge_r = static_cast<int>(std::floor(noise.edge_radius_px));
-  const bool edges = noise.edge_drop_probability > 0 && edge_r > 0;
-  const float edge_ratio = static_cast<float>(noise.edge_jump_ratio);
-  const float drop_p = static_cast<float>(noise.edge_drop_probability);
-  const float min_z = static_cast<float>(noise.min_depth_m);
-  const float max_z = noise.max_depth_m > 0 ? static_cast<float>(noise.max_depth_m) : std::numeric_limits<float>::infinity();
-  const bool lateral_on = noise.lateral_sigma_px > 0;
-  tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& rows) {
-    for (int v = rows.begin(); v < rows.end(); ++v) {
-      float* noisy = out.depth_m.ptr<float>(v);
-      for (int u = 0; u < W; ++u) {
-        const uint64_t index = static_cast<uint64_t>(v) * W + u;
-        const uint64_t lbits = pixel_bits(lateral_key, index);
-        int su = u, sv = v;
-        if (lateral_on) {
-          // Bits 0-15 and 16-31 pick the shifts, 32-63 the edge drop: no bit is used twice.
-          su = std::clamp(u + lateral.shift(unit_float(static_cast<uint32_t>(lbits & 0xFFFFu) << 16)), 0, W - 1);
-          sv = std::clamp(v + lateral.shift(unit_float(static_cast<uint32_t>((lbits >> 16) & 0xFFFFu) << 16)), 0, H - 1);
-        }
-        float z = out.depth_true_m.ptr<float>(sv)[su];
-        const float cos_ray = cos_incidence.ptr<float>(sv)[su];
-        if (z <= 0 || cos_ray < cos_max) {
-          noisy[u] = 0;
-          continue;
-        }
-        if (edges && unit_float(static_cast<uint32_t>(lbits >> 32)) < drop_p) {
-          bool jump = false;
-          for (int dv = -edge_r; dv <= edge_r && !jump; ++dv) {
-            const int nv = sv + dv;
-            if (nv < 0 || nv >= H) continue;
-            const float* row = out.depth_true_m.ptr<float>(nv);
-            for (int du = -edge_r; du <= edge_r; ++du) {
-              const int nu = su + du;
-              if (nu < 0 || nu >= W) continue;
-              if (std::abs(row[nu] - z) > edge_ratio * z) {
-                jump = true;
-                break;
-              }
-            }
-          }
-          if (jump) {
-            noisy[u] = 0;
-            continue;
-          }
-        }
-        if (noise.axial) {
-          // Capped below 90 degrees, where the model's sigma diverges (only reachable with the
-          // incidence cut-off disabled).
-          const float theta = std::min(fast_acos01(std::min(1.0f, cos_ray)), 1.55f);
-          z += noise.axial_sigma_m(z, theta) * normal_table_[pixel_bits(axial_key, index) >> (64 - kNormalBits)];
-        }
-        z = noise.quantize(z, fx);
-        noisy[u] = (z >= min_z && z <= max_z && z > 0) ? z : 0.0f;
-      }
-    }
-  });
+  DepthNoise(req, intrinsics_, normal_table_).apply(out);
   return out;
 }
 
