@@ -409,6 +409,91 @@ ObjectDesc parse_object(const Node& n, double fps, size_t index) {
   return d;
 }
 
+
+KinectNoiseParams parse_noise_setting(const Node& top) {
+  const json& nv = top.get("noise");
+  if (nv.is_boolean()) return nv.get<bool>() ? KinectNoiseParams{} : KinectNoiseParams::none();
+  if (!nv.is_object()) top.fail("noise", "expected true, false or an object of noise parameters");
+  return parse_noise(top.object("noise"));
+}
+
+LightDesc parse_light(const Node& l, LightDesc light) {
+  if (l.has("direction")) {
+    light.direction_world = l.vec<3>("direction");
+    if (light.direction_world.norm() < 1e-9) l.fail("direction", "must not be zero");
+  }
+  light.ambient = l.non_negative("ambient", light.ambient);
+  if (light.ambient > 1) l.fail("ambient", "must be in [0, 1]");
+  l.finish();
+  return light;
+}
+
+RoomDesc parse_room(const Node& r) {
+  RoomDesc room;
+  room.size_m = r.vec<3>("size");
+  if (!(room.size_m.minCoeff() > 0)) r.fail("size", "extents must be > 0");
+  room.floor = texture_or(r, "floor", plain(150, 120, 90));
+  room.walls = texture_or(r, "walls", plain(210, 205, 195));
+  room.ceiling = texture_or(r, "ceiling", plain(235, 235, 235));
+  r.finish();
+  return room;
+}
+
+TableDesc parse_table(const Node& t) {
+  TableDesc table;
+  if (t.has("position")) table.position_m = t.vec<2>("position");
+  table.yaw_deg = t.number("yaw_deg", table.yaw_deg);
+  if (t.has("top_size")) {
+    table.top_size_m = t.vec<2>("top_size");
+    if (!(table.top_size_m.minCoeff() > 0)) t.fail("top_size", "extents must be > 0");
+  }
+  table.height_m = t.positive("height_m", table.height_m);
+  table.top_thickness_m = t.positive("top_thickness_m", table.top_thickness_m);
+  if (table.top_thickness_m >= table.height_m) t.fail("top_thickness_m", "must be less than height_m");
+  table.legs = t.boolean("legs", table.legs);
+  table.leg_width_m = t.positive("leg_width_m", table.leg_width_m);
+  if (table.legs && 2 * table.leg_width_m > table.top_size_m.minCoeff()) t.fail("leg_width_m", "legs wider than half the top");
+  table.texture = texture_or(t, "texture", plain(170, 120, 70));
+  table.leg_texture = texture_or(t, "leg_texture", plain(90, 60, 40));
+  t.finish();
+  return table;
+}
+
+StaticDesc parse_static(const Node& n, size_t index) {
+  StaticDesc d;
+  d.name = n.string("name", "static-" + std::to_string(index));
+  d.shape = parse_shape(n);
+  d.texture = texture_or(n, "texture", plain(128, 128, 128));
+  d.T_world_object = parse_pose(n.object("pose"), false);
+  n.finish();
+  return d;
+}
+
+OcclusionDesc parse_occlusion(const Node& n) {
+  OcclusionDesc o;
+  const auto [first, last] = parse_frame_range(n, "frames");
+  o.first_frame = first;
+  o.last_frame = last;
+  const std::string kind = n.string("kind", "covered");
+  if (kind == "covered") o.kind = OcclusionKind::kCovered;
+  else n.fail("kind", "unknown occlusion kind '" + kind + "' (covered)");
+  n.finish();
+  return o;
+}
+
+// The scene's name, description, length, frame rate and seed.
+void parse_header(const Node& top, SceneDescription& s) {
+  s.name = top.string("name", std::filesystem::path(s.origin).stem().string());
+  s.description = top.string("description", "");
+  const long long frames = top.integer("frames");
+  if (frames < 1 || frames > 1000000) top.fail("frames", "must be in [1, 1000000]");
+  s.frames = static_cast<int>(frames);
+  s.fps = top.positive("fps", s.fps);
+  const long long seed = top.integer("seed", s.seed);
+  if (seed < 0 || seed > 0xFFFFFFFFll) top.fail("seed", "must be in [0, 2^32)");
+  s.seed = static_cast<unsigned>(seed);
+}
+
 }  // namespace
 
 bool SceneDescription::covered(int frame) const {
@@ -428,99 +513,20 @@ SceneDescription parse_scene(std::string_view json_text, const std::string& orig
   s.origin = origin;
   s.json_text = std::string(json_text);
   const Node top(root, "", s.origin);
-  s.name = top.string("name", std::filesystem::path(origin).stem().string());
-  s.description = top.string("description", "");
-  const long long frames = top.integer("frames");
-  if (frames < 1 || frames > 1000000) top.fail("frames", "must be in [1, 1000000]");
-  s.frames = static_cast<int>(frames);
-  s.fps = top.positive("fps", s.fps);
-  const long long seed = top.integer("seed", s.seed);
-  if (seed < 0 || seed > 0xFFFFFFFFll) top.fail("seed", "must be in [0, 2^32)");
-  s.seed = static_cast<unsigned>(seed);
+  parse_header(top, s);
   s.camera = parse_camera(top.object("camera"), s.fps);
-
-  if (top.has("noise")) {
-    const json& nv = top.get("noise");
-    if (nv.is_boolean()) s.noise = nv.get<bool>() ? KinectNoiseParams{} : KinectNoiseParams::none();
-    else if (nv.is_object()) s.noise = parse_noise(top.object("noise"));
-    else top.fail("noise", "expected true, false or an object of noise parameters");
-  }
-
-  if (top.has("light")) {
-    const Node l = top.object("light");
-    if (l.has("direction")) {
-      s.light.direction_world = l.vec<3>("direction");
-      if (s.light.direction_world.norm() < 1e-9) l.fail("direction", "must not be zero");
-    }
-    s.light.ambient = l.non_negative("ambient", s.light.ambient);
-    if (s.light.ambient > 1) l.fail("ambient", "must be in [0, 1]");
-    l.finish();
-  }
-
-  if (top.has("room")) {
-    const Node r = top.object("room");
-    RoomDesc room;
-    room.size_m = r.vec<3>("size");
-    if (!(room.size_m.minCoeff() > 0)) r.fail("size", "extents must be > 0");
-    room.floor = texture_or(r, "floor", plain(150, 120, 90));
-    room.walls = texture_or(r, "walls", plain(210, 205, 195));
-    room.ceiling = texture_or(r, "ceiling", plain(235, 235, 235));
-    r.finish();
-    s.room = room;
-  }
-
-  if (top.has("table")) {
-    const Node t = top.object("table");
-    TableDesc table;
-    if (t.has("position")) table.position_m = t.vec<2>("position");
-    table.yaw_deg = t.number("yaw_deg", table.yaw_deg);
-    if (t.has("top_size")) {
-      table.top_size_m = t.vec<2>("top_size");
-      if (!(table.top_size_m.minCoeff() > 0)) t.fail("top_size", "extents must be > 0");
-    }
-    table.height_m = t.positive("height_m", table.height_m);
-    table.top_thickness_m = t.positive("top_thickness_m", table.top_thickness_m);
-    if (table.top_thickness_m >= table.height_m) t.fail("top_thickness_m", "must be less than height_m");
-    table.legs = t.boolean("legs", table.legs);
-    table.leg_width_m = t.positive("leg_width_m", table.leg_width_m);
-    if (table.legs && 2 * table.leg_width_m > table.top_size_m.minCoeff())
-      t.fail("leg_width_m", "legs wider than half the top");
-    table.texture = texture_or(t, "texture", plain(170, 120, 70));
-    table.leg_texture = texture_or(t, "leg_texture", plain(90, 60, 40));
-    t.finish();
-    s.table = table;
-  }
-
-  if (top.has("static")) {
-    for (const Node& n : top.array_of_objects("static")) {
-      StaticDesc d;
-      d.name = n.string("name", "static-" + std::to_string(s.statics.size()));
-      d.shape = parse_shape(n);
-      d.texture = texture_or(n, "texture", plain(128, 128, 128));
-      d.T_world_object = parse_pose(n.object("pose"), false);
-      n.finish();
-      s.statics.push_back(d);
-    }
-  }
-
+  if (top.has("noise")) s.noise = parse_noise_setting(top);
+  if (top.has("light")) s.light = parse_light(top.object("light"), s.light);
+  if (top.has("room")) s.room = parse_room(top.object("room"));
+  if (top.has("table")) s.table = parse_table(top.object("table"));
+  if (top.has("static"))
+    for (const Node& n : top.array_of_objects("static")) s.statics.push_back(parse_static(n, s.statics.size()));
   if (top.has("objects")) {
     for (const Node& n : top.array_of_objects("objects")) s.objects.push_back(parse_object(n, s.fps, s.objects.size()));
     if (s.objects.size() > 65535) top.fail("objects", "at most 65535 objects (16-bit instance ids)");
   }
-
-  if (top.has("occlusions")) {
-    for (const Node& n : top.array_of_objects("occlusions")) {
-      OcclusionDesc o;
-      const auto [first, last] = parse_frame_range(n, "frames");
-      o.first_frame = first;
-      o.last_frame = last;
-      const std::string kind = n.string("kind", "covered");
-      if (kind == "covered") o.kind = OcclusionKind::kCovered;
-      else n.fail("kind", "unknown occlusion kind '" + kind + "' (covered)");
-      n.finish();
-      s.occlusions.push_back(o);
-    }
-  }
+  if (top.has("occlusions"))
+    for (const Node& n : top.array_of_objects("occlusions")) s.occlusions.push_back(parse_occlusion(n));
   top.finish();
   return s;
 }
