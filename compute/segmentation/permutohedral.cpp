@@ -71,107 +71,86 @@ class KeyTable {
   std::vector<int32_t> keys_;
 };
 
-}  // namespace
-
-void PermutohedralLattice::init(const float* features, int d, int n) {
-  if (d < 1 || d > 16) throw Error("permutohedral lattice: dimensions must be in 1..16, got " + std::to_string(d));
-  if (n < 0 || (n > 0 && features == nullptr)) throw Error("permutohedral lattice: bad point set");
-  d_ = d;
-  n_ = n;
-  const int d1 = d + 1;
-  offset_.assign(static_cast<size_t>(n) * d1, 0);
-  barycentric_.assign(static_cast<size_t>(n) * d1, 0.0f);
-
-  // Elevation into the hyperplane sum = 0 of R^(d+1), scaled so that the lattice blur matches a
-  // unit-sigma Gaussian (Adams et al. 2010, section 3; the factor as in Krähenbühl's code).
-  const float inv_std = std::sqrt(2.0f / 3.0f) * static_cast<float>(d1);
+// Elevation of a feature vector into the hyperplane sum = 0 of R^(d+1), scaled so that the
+// lattice blur matches a unit-sigma Gaussian (Adams et al. 2010, section 3; the factor as in
+// Krähenbühl's code): `scale` from elevation_scale(), `elevated` of d + 1 values.
+std::vector<float> elevation_scale(int d) {
+  const float inv_std = std::sqrt(2.0f / 3.0f) * static_cast<float>(d + 1);
   std::vector<float> scale(static_cast<size_t>(d));
   for (int i = 0; i < d; ++i) scale[static_cast<size_t>(i)] = inv_std / std::sqrt(static_cast<float>((i + 1) * (i + 2)));
+  return scale;
+}
 
-  KeyTable table(d, static_cast<size_t>(n) * d1);
-  std::vector<float> elevated(static_cast<size_t>(d1)), bary(static_cast<size_t>(d1) + 1), cf(static_cast<size_t>(d));
-  std::vector<int32_t> rem0(static_cast<size_t>(d1)), rank(static_cast<size_t>(d1)), key(static_cast<size_t>(d));
+void elevate(const float* f, const std::vector<float>& scale, int d, std::vector<float>& cf, std::vector<float>& elevated) {
+  for (int i = 0; i < d; ++i) cf[static_cast<size_t>(i)] = f[i] * scale[static_cast<size_t>(i)];
+  elevated[static_cast<size_t>(d)] = -static_cast<float>(d) * cf[static_cast<size_t>(d) - 1];
+  for (int i = d - 1; i > 0; --i)
+    elevated[static_cast<size_t>(i)] = elevated[static_cast<size_t>(i) + 1] - static_cast<float>(i) * cf[static_cast<size_t>(i) - 1] +
+                                       static_cast<float>(i + 2) * cf[static_cast<size_t>(i)];
+  elevated[0] = elevated[1] + 2.0f * cf[0];
+}
+
+// The simplex enclosing an elevated point: the nearest remainder-0 point (coordinates multiples
+// of d+1) and the rank of each coordinate's residual, fixed up so that the coordinates sum to zero.
+void enclosing_simplex(const std::vector<float>& elevated, int d, std::vector<int32_t>& rem0, std::vector<int32_t>& rank) {
+  const int d1 = d + 1;
   const float down = 1.0f / static_cast<float>(d1);
-  for (int p = 0; p < n; ++p) {
-    const float* f = features + static_cast<size_t>(p) * d;
-    for (int i = 0; i < d; ++i) cf[static_cast<size_t>(i)] = f[i] * scale[static_cast<size_t>(i)];
-    elevated[static_cast<size_t>(d)] = -static_cast<float>(d) * cf[static_cast<size_t>(d) - 1];
-    for (int i = d - 1; i > 0; --i)
-      elevated[static_cast<size_t>(i)] = elevated[static_cast<size_t>(i) + 1] - static_cast<float>(i) * cf[static_cast<size_t>(i) - 1] +
-                                         static_cast<float>(i + 2) * cf[static_cast<size_t>(i)];
-    elevated[0] = elevated[1] + 2.0f * cf[0];
-
-    // Nearest remainder-0 point (coordinates multiples of d+1), then the rank of each coordinate's
-    // residual, fixed up so that the coordinates sum to zero.
-    int sum = 0;
-    for (int i = 0; i <= d; ++i) {
-      const float v = elevated[static_cast<size_t>(i)] * down;
-      const float up = std::ceil(v) * static_cast<float>(d1);
-      const float dn = std::floor(v) * static_cast<float>(d1);
-      const float e = elevated[static_cast<size_t>(i)];
-      rem0[static_cast<size_t>(i)] = static_cast<int32_t>(up - e < e - dn ? up : dn);
-      sum += rem0[static_cast<size_t>(i)];
+  int sum = 0;
+  for (int i = 0; i <= d; ++i) {
+    const float v = elevated[static_cast<size_t>(i)] * down;
+    const float up = std::ceil(v) * static_cast<float>(d1);
+    const float dn = std::floor(v) * static_cast<float>(d1);
+    const float e = elevated[static_cast<size_t>(i)];
+    rem0[static_cast<size_t>(i)] = static_cast<int32_t>(up - e < e - dn ? up : dn);
+    sum += rem0[static_cast<size_t>(i)];
+  }
+  sum /= d1;
+  std::fill(rank.begin(), rank.end(), 0);
+  for (int i = 0; i < d; ++i)
+    for (int j = i + 1; j <= d; ++j) {
+      const float di = elevated[static_cast<size_t>(i)] - static_cast<float>(rem0[static_cast<size_t>(i)]);
+      const float dj = elevated[static_cast<size_t>(j)] - static_cast<float>(rem0[static_cast<size_t>(j)]);
+      if (di < dj)
+        ++rank[static_cast<size_t>(i)];
+      else
+        ++rank[static_cast<size_t>(j)];
     }
-    sum /= d1;
-    std::fill(rank.begin(), rank.end(), 0);
-    for (int i = 0; i < d; ++i)
-      for (int j = i + 1; j <= d; ++j) {
-        const float di = elevated[static_cast<size_t>(i)] - static_cast<float>(rem0[static_cast<size_t>(i)]);
-        const float dj = elevated[static_cast<size_t>(j)] - static_cast<float>(rem0[static_cast<size_t>(j)]);
-        if (di < dj)
-          ++rank[static_cast<size_t>(i)];
-        else
-          ++rank[static_cast<size_t>(j)];
-      }
-    if (sum > 0) {
-      for (int i = 0; i <= d; ++i) {
-        auto& r = rank[static_cast<size_t>(i)];
-        if (r >= d1 - sum) {
-          rem0[static_cast<size_t>(i)] -= d1;
-          r += sum - d1;
-        } else {
-          r += sum;
-        }
-      }
-    } else if (sum < 0) {
-      for (int i = 0; i <= d; ++i) {
-        auto& r = rank[static_cast<size_t>(i)];
-        if (r < -sum) {
-          rem0[static_cast<size_t>(i)] += d1;
-          r += d1 + sum;
-        } else {
-          r += sum;
-        }
-      }
-    }
-
-    // Barycentric coordinates within the simplex.
-    std::fill(bary.begin(), bary.end(), 0.0f);
-    for (int i = 0; i <= d; ++i) {
-      const float v = (elevated[static_cast<size_t>(i)] - static_cast<float>(rem0[static_cast<size_t>(i)])) * down;
-      bary[static_cast<size_t>(d - rank[static_cast<size_t>(i)])] += v;
-      bary[static_cast<size_t>(d1 - rank[static_cast<size_t>(i)])] -= v;
-    }
-    bary[0] += 1.0f + bary[static_cast<size_t>(d1)];
-
-    // The simplex's vertices: remainder-0 point plus the canonical simplex's offsets.
-    for (int r = 0; r <= d; ++r) {
-      for (int i = 0; i < d; ++i) {
-        const int rk = rank[static_cast<size_t>(i)];
-        key[static_cast<size_t>(i)] = rem0[static_cast<size_t>(i)] + (rk <= d - r ? r : r - d1);
-      }
-      offset_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = table.insert(key.data());
-      barycentric_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = bary[static_cast<size_t>(r)];
+  for (int i = 0; i <= d && sum != 0; ++i) {
+    auto& r = rank[static_cast<size_t>(i)];
+    if (sum > 0 && r >= d1 - sum) {
+      rem0[static_cast<size_t>(i)] -= d1;
+      r += sum - d1;
+    } else if (sum < 0 && r < -sum) {
+      rem0[static_cast<size_t>(i)] += d1;
+      r += d1 + sum;
+    } else {
+      r += sum;
     }
   }
-  vertex_count_ = table.size();
+}
 
-  // Neighbours of every vertex along each lattice direction j: +-(d+1) e_j -+ 1 in the embedding,
-  // i.e. coordinate j changes by -+d and every other coordinate by -+1. Absent ones point at an
-  // extra vertex (index vertex_count_) whose values stay zero, so the blur has no branches.
-  neighbour_.assign(static_cast<size_t>(vertex_count_) * d1 * 2, vertex_count_);
+// Barycentric coordinates of the elevated point within its simplex (d + 2 values, the last scratch).
+void barycentric(const std::vector<float>& elevated, const std::vector<int32_t>& rem0, const std::vector<int32_t>& rank,
+                 int d, std::vector<float>& bary) {
+  const int d1 = d + 1;
+  const float down = 1.0f / static_cast<float>(d1);
+  std::fill(bary.begin(), bary.end(), 0.0f);
+  for (int i = 0; i <= d; ++i) {
+    const float v = (elevated[static_cast<size_t>(i)] - static_cast<float>(rem0[static_cast<size_t>(i)])) * down;
+    bary[static_cast<size_t>(d - rank[static_cast<size_t>(i)])] += v;
+    bary[static_cast<size_t>(d1 - rank[static_cast<size_t>(i)])] -= v;
+  }
+  bary[0] += 1.0f + bary[static_cast<size_t>(d1)];
+}
+
+// Neighbours of every vertex along each lattice direction j: +-(d+1) e_j -+ 1 in the embedding,
+// i.e. coordinate j changes by -+d and every other coordinate by -+1. Absent ones point at an
+// extra vertex (index vertex_count) whose values stay zero, so the blur has no branches.
+std::vector<int32_t> link_neighbours(const KeyTable& table, int d, int32_t vertex_count) {
+  const int d1 = d + 1;
+  std::vector<int32_t> neighbour(static_cast<size_t>(vertex_count) * d1 * 2, vertex_count);
   std::vector<int32_t> n1(static_cast<size_t>(d)), n2(static_cast<size_t>(d));
-  for (int32_t v = 0; v < vertex_count_; ++v) {
+  for (int32_t v = 0; v < vertex_count; ++v) {
     const int32_t* k = table.key(v);
     for (int j = 0; j <= d; ++j) {
       for (int i = 0; i < d; ++i) {
@@ -184,10 +163,43 @@ void PermutohedralLattice::init(const float* features, int d, int n) {
       }
       const size_t base = (static_cast<size_t>(v) * d1 + static_cast<size_t>(j)) * 2;
       const int32_t a = table.find(n1.data()), b = table.find(n2.data());
-      neighbour_[base] = a >= 0 ? a : vertex_count_;
-      neighbour_[base + 1] = b >= 0 ? b : vertex_count_;
+      neighbour[base] = a >= 0 ? a : vertex_count;
+      neighbour[base + 1] = b >= 0 ? b : vertex_count;
     }
   }
+  return neighbour;
+}
+
+}  // namespace
+
+void PermutohedralLattice::init(const float* features, int d, int n) {
+  if (d < 1 || d > 16) throw Error("permutohedral lattice: dimensions must be in 1..16, got " + std::to_string(d));
+  if (n < 0 || (n > 0 && features == nullptr)) throw Error("permutohedral lattice: bad point set");
+  d_ = d;
+  n_ = n;
+  const int d1 = d + 1;
+  offset_.assign(static_cast<size_t>(n) * d1, 0);
+  barycentric_.assign(static_cast<size_t>(n) * d1, 0.0f);
+  const std::vector<float> scale = elevation_scale(d);
+  KeyTable table(d, static_cast<size_t>(n) * d1);
+  std::vector<float> elevated(static_cast<size_t>(d1)), bary(static_cast<size_t>(d1) + 1), cf(static_cast<size_t>(d));
+  std::vector<int32_t> rem0(static_cast<size_t>(d1)), rank(static_cast<size_t>(d1)), key(static_cast<size_t>(d));
+  for (int p = 0; p < n; ++p) {
+    elevate(features + static_cast<size_t>(p) * d, scale, d, cf, elevated);
+    enclosing_simplex(elevated, d, rem0, rank);
+    barycentric(elevated, rem0, rank, d, bary);
+    // The simplex's vertices: remainder-0 point plus the canonical simplex's offsets.
+    for (int r = 0; r <= d; ++r) {
+      for (int i = 0; i < d; ++i) {
+        const int rk = rank[static_cast<size_t>(i)];
+        key[static_cast<size_t>(i)] = rem0[static_cast<size_t>(i)] + (rk <= d - r ? r : r - d1);
+      }
+      offset_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = table.insert(key.data());
+      barycentric_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = bary[static_cast<size_t>(r)];
+    }
+  }
+  vertex_count_ = table.size();
+  neighbour_ = link_neighbours(table, d, vertex_count_);
 }
 
 void PermutohedralLattice::filter(const float* in, float* out, int v) const {
