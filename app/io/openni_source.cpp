@@ -135,6 +135,13 @@ struct OpenNiSource::Impl {
   }
 
   void open(const char* uri, const OpenNiSourceOptions& options);
+  void open_device(const char* uri);
+  void configure_playback();
+  void configure_live(const OpenNiSourceOptions& options);
+  void register_depth_to_colour();
+  void check_modes(int& width, int& height) const;
+  void set_intrinsics(const std::string& option, int width, int height);
+  Intrinsics intrinsics_from_field_of_view(int width, int height);
   cv::Mat convert_colour(const openni::VideoFrameRef& f) const;
   void wait_for(openni::VideoStream& stream, int timeout_ms, const std::string& what) const;
 };
@@ -151,6 +158,23 @@ void OpenNiSource::Impl::wait_for(openni::VideoStream& stream, int timeout_ms, c
 void OpenNiSource::Impl::open(const char* uri, const OpenNiSourceOptions& options) {
   frame_timeout_ms = options.frame_timeout_ms;
   ensure_openni_initialized();
+  open_device(uri);
+  if (is_file)
+    configure_playback();
+  else
+    configure_live(options);
+  register_depth_to_colour();
+  int w = 0, h = 0;
+  check_modes(w, h);
+  set_intrinsics(options.intrinsics, w, h);
+  require_plausible(intrinsics.intrinsics, name + " (" + intrinsics.origin + ")");
+  if (depth.start() != openni::STATUS_OK) throw Error(name + ": cannot start the depth stream: " + openni_error());
+  if (has_colour && colour.start() != openni::STATUS_OK)
+    throw Error(name + ": cannot start the colour stream: " + openni_error());
+}
+
+// The device or recording with its depth stream (required) and colour stream (when there is one).
+void OpenNiSource::Impl::open_device(const char* uri) {
   if (device.open(uri) != openni::STATUS_OK) {
     const std::string why = openni_error();
     throw Error(name + ": OpenNI2 cannot open " + (is_file ? "the recording" : "the device") +
@@ -160,95 +184,105 @@ void OpenNiSource::Impl::open(const char* uri, const OpenNiSourceOptions& option
   if (depth.create(device, openni::SENSOR_DEPTH) != openni::STATUS_OK)
     throw Error(name + ": cannot create the depth stream: " + openni_error());
   has_colour = device.hasSensor(openni::SENSOR_COLOR) && colour.create(device, openni::SENSOR_COLOR) == openni::STATUS_OK;
+}
 
-  if (is_file) {
-    openni::PlaybackControl* playback = device.getPlaybackControl();
-    if (!playback) throw Error(name + ": OpenNI2 gives no playback control for the recording");
-    playback->setSpeed(-1.0f);  // as fast as frames are read; the player waits for the reader
-    playback->setRepeatEnabled(false);
-    depth_frames_total = playback->getNumberOfFrames(depth);
-    if (depth_frames_total <= 0) throw Error(name + ": the recording holds no depth frames");
-    if (has_colour) {
-      colour_frames_total = playback->getNumberOfFrames(colour);
-      if (colour_frames_total <= 0) {
-        colour.destroy();
-        has_colour = false;
-      }
+// A recording plays as fast as it is read, once; a colour stream without frames is dropped.
+void OpenNiSource::Impl::configure_playback() {
+  openni::PlaybackControl* playback = device.getPlaybackControl();
+  if (!playback) throw Error(name + ": OpenNI2 gives no playback control for the recording");
+  playback->setSpeed(-1.0f);  // as fast as frames are read; the player waits for the reader
+  playback->setRepeatEnabled(false);
+  depth_frames_total = playback->getNumberOfFrames(depth);
+  if (depth_frames_total <= 0) throw Error(name + ": the recording holds no depth frames");
+  if (has_colour) {
+    colour_frames_total = playback->getNumberOfFrames(colour);
+    if (colour_frames_total <= 0) {
+      colour.destroy();
+      has_colour = false;
     }
-  } else {
-    // Live: ask for the nearest mode to the preferred size in a format we can read.
-    if (auto mode = pick_mode(device.getSensorInfo(openni::SENSOR_DEPTH),
-                              {openni::PIXEL_FORMAT_DEPTH_1_MM, openni::PIXEL_FORMAT_DEPTH_100_UM}, options.live_width,
-                              options.live_height, options.live_fps))
-      depth.setVideoMode(*mode);
-    if (has_colour) {
-      if (auto mode = pick_mode(device.getSensorInfo(openni::SENSOR_COLOR),
-                                {openni::PIXEL_FORMAT_RGB888, openni::PIXEL_FORMAT_YUYV, openni::PIXEL_FORMAT_YUV422},
-                                depth.getVideoMode().getResolutionX(), depth.getVideoMode().getResolutionY(),
-                                options.live_fps))
-        colour.setVideoMode(*mode);
-    }
-    device.setDepthColorSyncEnabled(true);  // best effort: not every driver supports it
   }
+}
 
-  // Depth registered to colour so pixels correspond; recordings keep whatever was recorded.
+// Live: the nearest mode to the preferred size in a format we can read.
+void OpenNiSource::Impl::configure_live(const OpenNiSourceOptions& options) {
+  if (auto mode = pick_mode(device.getSensorInfo(openni::SENSOR_DEPTH),
+                            {openni::PIXEL_FORMAT_DEPTH_1_MM, openni::PIXEL_FORMAT_DEPTH_100_UM}, options.live_width,
+                            options.live_height, options.live_fps))
+    depth.setVideoMode(*mode);
+  if (has_colour) {
+    if (auto mode = pick_mode(device.getSensorInfo(openni::SENSOR_COLOR),
+                              {openni::PIXEL_FORMAT_RGB888, openni::PIXEL_FORMAT_YUYV, openni::PIXEL_FORMAT_YUV422},
+                              depth.getVideoMode().getResolutionX(), depth.getVideoMode().getResolutionY(),
+                              options.live_fps))
+      colour.setVideoMode(*mode);
+  }
+  device.setDepthColorSyncEnabled(true);  // best effort: not every driver supports it
+}
+
+// Depth registered to colour so pixels correspond; recordings keep whatever was recorded.
+void OpenNiSource::Impl::register_depth_to_colour() {
   if (has_colour && device.isImageRegistrationModeSupported(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR)) {
     registered = device.setImageRegistrationMode(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR) == openni::STATUS_OK;
     registration_note = registered ? "depth registered to colour" : "depth registration to colour failed";
   } else {
     registration_note = has_colour ? "depth not registered to colour (not supported by the driver)" : "no colour stream";
   }
+}
 
+// Pixel formats we can read and streams of one size; returns that size.
+void OpenNiSource::Impl::check_modes(int& w, int& h) const {
   const openni::VideoMode depth_mode = depth.getVideoMode();
-  const int w = depth_mode.getResolutionX(), h = depth_mode.getResolutionY();
+  w = depth_mode.getResolutionX(), h = depth_mode.getResolutionY();
   if (depth_scale_m(depth_mode.getPixelFormat()) == 0.0)
     throw Error(name + ": depth pixel format '" + format_name(depth_mode.getPixelFormat()) + "' is not supported");
   if (w <= 0 || h <= 0) throw Error(name + ": depth stream reports size " + std::to_string(w) + "x" + std::to_string(h));
-  if (has_colour) {
-    const openni::VideoMode colour_mode = colour.getVideoMode();
-    if (!colour_supported(colour_mode.getPixelFormat()))
-      throw Error(name + ": colour pixel format '" + format_name(colour_mode.getPixelFormat()) + "' is not supported");
-    if (colour_mode.getResolutionX() != w || colour_mode.getResolutionY() != h)
-      throw Error(name + ": colour stream is " + std::to_string(colour_mode.getResolutionX()) + "x" +
-                  std::to_string(colour_mode.getResolutionY()) + " but depth is " + std::to_string(w) + "x" +
-                  std::to_string(h));
-  }
+  if (!has_colour) return;
+  const openni::VideoMode colour_mode = colour.getVideoMode();
+  if (!colour_supported(colour_mode.getPixelFormat()))
+    throw Error(name + ": colour pixel format '" + format_name(colour_mode.getPixelFormat()) + "' is not supported");
+  if (colour_mode.getResolutionX() != w || colour_mode.getResolutionY() != h)
+    throw Error(name + ": colour stream is " + std::to_string(colour_mode.getResolutionX()) + "x" +
+                std::to_string(colour_mode.getResolutionY()) + " but depth is " + std::to_string(w) + "x" +
+                std::to_string(h));
+}
 
-  if (!options.intrinsics.empty()) {
-    intrinsics = parse_intrinsics_option(options.intrinsics);
-    if (intrinsics.size_known && (intrinsics.intrinsics.width != w || intrinsics.intrinsics.height != h))
-      throw Error(name + ": --intrinsics are for " + std::to_string(intrinsics.intrinsics.width) + "x" +
-                  std::to_string(intrinsics.intrinsics.height) + " images but the streams are " + std::to_string(w) +
-                  "x" + std::to_string(h));
-    intrinsics.intrinsics.width = w;
-    intrinsics.intrinsics.height = h;
-  } else {
-    // Registered depth lives in the colour camera: prefer its field of view when it reports one.
-    openni::VideoStream& fov_stream =
-        (registered && colour.getHorizontalFieldOfView() > 0 && colour.getVerticalFieldOfView() > 0) ? colour : depth;
-    const double hfov = fov_stream.getHorizontalFieldOfView(), vfov = fov_stream.getVerticalFieldOfView();
-    const std::string stream_name = &fov_stream == &colour ? "colour" : "depth";
-    if (!(hfov > 0 && hfov < kPi && vfov > 0 && vfov < kPi))
-      throw Error(name + ": the " + stream_name + " stream reports no usable field of view (" + std::to_string(hfov) +
-                  ", " + std::to_string(vfov) + " rad); give --intrinsics");
-    Intrinsics k;
-    k.width = w;
-    k.height = h;
-    k.fx = w / (2.0 * std::tan(hfov / 2.0));
-    k.fy = h / (2.0 * std::tan(vfov / 2.0));
-    k.cx = (w - 1) / 2.0;
-    k.cy = (h - 1) / 2.0;
-    intrinsics.intrinsics = k;
+// From --intrinsics when given (their size must match the streams'), else from the streams'
+// fields of view.
+void OpenNiSource::Impl::set_intrinsics(const std::string& option, int w, int h) {
+  if (option.empty()) {
+    intrinsics.intrinsics = intrinsics_from_field_of_view(w, h);
     intrinsics.size_known = true;
-    char fov[96];
-    std::snprintf(fov, sizeof fov, "hfov %.2f deg, vfov %.2f deg", hfov * 180.0 / kPi, vfov * 180.0 / kPi);
-    intrinsics.origin = "field of view of the " + stream_name + " stream (" + fov + ")";
+    return;
   }
-  require_plausible(intrinsics.intrinsics, name + " (" + intrinsics.origin + ")");
+  intrinsics = parse_intrinsics_option(option);
+  if (intrinsics.size_known && (intrinsics.intrinsics.width != w || intrinsics.intrinsics.height != h))
+    throw Error(name + ": --intrinsics are for " + std::to_string(intrinsics.intrinsics.width) + "x" +
+                std::to_string(intrinsics.intrinsics.height) + " images but the streams are " + std::to_string(w) +
+                "x" + std::to_string(h));
+  intrinsics.intrinsics.width = w;
+  intrinsics.intrinsics.height = h;
+}
 
-  if (depth.start() != openni::STATUS_OK) throw Error(name + ": cannot start the depth stream: " + openni_error());
-  if (has_colour && colour.start() != openni::STATUS_OK)
-    throw Error(name + ": cannot start the colour stream: " + openni_error());
+// Registered depth lives in the colour camera: its field of view is preferred when it reports one.
+Intrinsics OpenNiSource::Impl::intrinsics_from_field_of_view(int w, int h) {
+  openni::VideoStream& fov_stream =
+      (registered && colour.getHorizontalFieldOfView() > 0 && colour.getVerticalFieldOfView() > 0) ? colour : depth;
+  const double hfov = fov_stream.getHorizontalFieldOfView(), vfov = fov_stream.getVerticalFieldOfView();
+  const std::string stream_name = &fov_stream == &colour ? "colour" : "depth";
+  if (!(hfov > 0 && hfov < kPi && vfov > 0 && vfov < kPi))
+    throw Error(name + ": the " + stream_name + " stream reports no usable field of view (" + std::to_string(hfov) +
+                ", " + std::to_string(vfov) + " rad); give --intrinsics");
+  Intrinsics k;
+  k.width = w;
+  k.height = h;
+  k.fx = w / (2.0 * std::tan(hfov / 2.0));
+  k.fy = h / (2.0 * std::tan(vfov / 2.0));
+  k.cx = (w - 1) / 2.0;
+  k.cy = (h - 1) / 2.0;
+  char fov[96];
+  std::snprintf(fov, sizeof fov, "hfov %.2f deg, vfov %.2f deg", hfov * 180.0 / kPi, vfov * 180.0 / kPi);
+  intrinsics.origin = "field of view of the " + stream_name + " stream (" + fov + ")";
+  return k;
 }
 
 cv::Mat OpenNiSource::Impl::convert_colour(const openni::VideoFrameRef& f) const {
