@@ -14,6 +14,7 @@
 
 #include "commands/commands.h"
 #include "common/error.h"
+#include "eval/drift_plot.h"
 #include "eval/report.h"
 
 namespace cofusion::commands {
@@ -56,6 +57,7 @@ struct ObjectOptions {
   double max_dt_s = 0.02;
   std::size_t min_poses = 10;
   bool json = false;
+  std::string plot_dir;  // drift charts, one PNG per matched model (empty: none)
 };
 
 void run_trajectory(const TrajectoryOptions& o) {
@@ -110,6 +112,7 @@ void run_objects(const ObjectOptions& o) {
   params.trajectory.association.max_difference_s = o.max_dt_s;
   params.min_matched_poses = o.min_poses;
   const auto result = eval::evaluate_object_dirs(o.gt_dir, o.est_dir, mapping, params);
+  if (!o.plot_dir.empty()) eval::write_drift_plots(result, o.plot_dir);
   print(eval::to_json(result), eval::to_text(result), o.json);
 }
 
@@ -175,6 +178,8 @@ void add_eval(CLI::App& app) {
   objects_cmd->add_option("--min-poses", objects->min_poses, "Automatic matching: fewest matched stamps for a candidate pair")
       ->capture_default_str();
   objects_cmd->add_flag("--json", objects->json, "Print one JSON object");
+  objects_cmd->add_option("--plot", objects->plot_dir,
+                          "Write DIR/drift-model-<id>.png: each model's drift since first seen against time");
   objects_cmd->callback([objects] { run_objects(*objects); });
 }
 

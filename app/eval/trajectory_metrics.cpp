@@ -400,11 +400,13 @@ ObjectTrajectoryErrors compute_object_trajectory_errors(const Trajectory& gt_obj
   const Eigen::Vector3d error0 = W * carried[0] - g[0];
   const Eigen::Matrix3d R_est0 = T_est[0]->linear(), R_gt0 = gt[matches.front().first].T_world_x.linear();
   std::vector<double> drift_m, drift_deg;
+  out.drift_series.push_back({gt[matches.front().first].timestamp_s, 0.0, 0.0});
   for (std::size_t k = 1; k < n; ++k) {
     drift_m.push_back((W * carried[k] - g[k] - error0).norm());
     const Eigen::Matrix3d turned_est = W.linear() * T_est[k]->linear() * R_est0.transpose() * W.linear().transpose();
     const Eigen::Matrix3d turned_gt = gt[matches[k].first].T_world_x.linear() * R_gt0.transpose();
     drift_deg.push_back(Eigen::AngleAxisd(turned_est.transpose() * turned_gt).angle() * 180.0 / std::numbers::pi);
+    out.drift_series.push_back({gt[matches[k].first].timestamp_s, drift_m.back(), drift_deg.back()});
   }
   out.drift_translation_m = summarize_errors(drift_m);
   out.drift_rotation_deg = summarize_errors(drift_deg);

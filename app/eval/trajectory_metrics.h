@@ -125,6 +125,13 @@ struct ObjectTrajectoryErrors {
   ErrorStats drift_translation_m;
   ErrorStats drift_rotation_deg;
   bool drift_in_given_world = false;  // W was given (else (2)'s A)
+  // (4) per matched stamp, the first (zero drift) included: what `eval objects --plot` draws.
+  struct DriftSample {
+    double timestamp_s = 0;  // the ground truth's
+    double translation_m = 0;
+    double rotation_deg = 0;
+  };
+  std::vector<DriftSample> drift_series;
 };
 
 struct ObjectTrajectoryParams {

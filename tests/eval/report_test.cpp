@@ -1,6 +1,9 @@
+#include "eval/drift_plot.h"
 #include "eval/report.h"
 
 #include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
 #include <tiny_gltf.h>
 
 #include <cstring>
@@ -172,6 +175,45 @@ TEST(ObjectsReport, DriftInTheCamerasWorld) {
   std::ofstream(dir / "est" / "camera.txt") << "1.0 not a pose\n";
   const std::string msg = test::error_of([&] { evaluate_object_dirs(dir / "gt", dir / "est", std::nullopt); });
   EXPECT_NE(msg.find((dir / "est" / "camera.txt").string()), std::string::npos) << msg;
+}
+
+// The drift series behind `eval objects --plot`: one sample per matched stamp, zero at the first,
+// its maximum the summary's; the chart draws it (translation in blue) into a PNG per model.
+TEST(ObjectsReport, DriftSeriesAndItsPlot) {
+  const auto dir = test::fresh_temp_dir();
+  fs::create_directories(dir / "gt");
+  fs::create_directories(dir / "est");
+  const Trajectory object = object_trajectory(0.4, 3.0);
+  Trajectory est_object = as_model(object);
+  // The model slips 2 cm along x halfway through and stays behind.
+  for (std::size_t i = 0; i < est_object.size(); ++i) {
+    est_object[i].T_world_x = object[i].T_world_x * object[0].T_world_x.inverse();
+    if (i >= est_object.size() / 2) est_object[i].T_world_x.translation() += Eigen::Vector3d(0.02, 0, 0);
+  }
+  write_tum_trajectory(dir / "gt" / "groundtruth-1.txt", object);
+  write_tum_trajectory(dir / "est" / "model-3.txt", est_object);
+  const ObjectsEvaluation e = evaluate_object_dirs(dir / "gt", dir / "est", std::nullopt);
+  ASSERT_EQ(e.pairs.size(), 1u);
+  const auto& errors = e.pairs[0].errors;
+  ASSERT_EQ(errors.drift_series.size(), errors.drift_translation_m.count + 1);
+  EXPECT_EQ(errors.drift_series.front().translation_m, 0.0);
+  double max_m = 0;
+  for (const auto& s : errors.drift_series) max_m = std::max(max_m, s.translation_m);
+  EXPECT_DOUBLE_EQ(max_m, errors.drift_translation_m.max);
+  EXPECT_GT(max_m, 0.005);  // the slip shows (the tracked-point fit halves it)
+
+  write_drift_plots(e, dir / "plots");
+  const cv::Mat png = cv::imread((dir / "plots" / "drift-model-3.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(png.empty());
+  EXPECT_EQ(png.cols, DriftPlotParams{}.width_px);
+  EXPECT_EQ(png.rows, DriftPlotParams{}.height_px);
+  int blue = 0;
+  for (int y = 0; y < png.rows; ++y)
+    for (int x = 0; x < png.cols; ++x) {
+      const cv::Vec3b c = png.at<cv::Vec3b>(y, x);
+      blue += c[0] > 150 && c[1] < 120 && c[2] < 60;
+    }
+  EXPECT_GT(blue, 200) << "the translation curve is drawn";
 }
 
 TEST(ReconstructionReport, PlyAgainstGlbWithTransform) {
