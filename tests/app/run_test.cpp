@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "eval/report.h"
 #include "eval/trajectory_metrics.h"
 #include "io/trajectory.h"
 #include "support/test_support.h"
@@ -217,6 +218,30 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
   const double ate = camera_ate_m(read_tum_trajectory(*data / "groundtruth.txt"), out);
   RecordProperty("camera_ate_m", std::to_string(ate));
   EXPECT_LE(ate, 0.005);
+}
+
+// Issue "Real dynamic scenes", no ghosts: the generated walking_people (three people walk through
+// the room for 120 frames; their masks exclude them) ends with the background model alone, the
+// camera within 1 cm, and no person surfel left in the background: the background's surfels lie
+// on the room's geometry (generated, geometry/background.glb) but for noise. Measured: 0.10 % of
+// them more than 5 cm from it (0.31 % in a motion-only run), 0.02 % more than 10 cm.
+TEST(RunCommand, WalkingPeopleLeaveNoGhostsInTheBackgroundSlow) {
+  const fs::path gt = fresh_temp_dir() / "walking_people", out = fresh_temp_dir();
+  const Result g = run_cofusion("generate walking_people --output " + gt.string());
+  ASSERT_EQ(g.exit_code, 0) << g.output;
+  const Result r = run_cofusion("run --headless --input tum:" + gt.string() + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  expect_complete_output(out, 120);
+  const Trajectory camera_gt = read_tum_trajectory(gt / "groundtruth.txt");
+  EXPECT_LE(camera_ate_m(camera_gt, out), 0.01);
+  // The background model's frame is the first camera's.
+  eval::ReconstructionParams params;
+  params.outlier_thresholds_m = {0.05, 0.10};
+  const auto recon = eval::evaluate_reconstruction_files(out / "models" / "model-0.ply", gt / "geometry" / "background.glb",
+                                                         camera_gt.front().T_world_x, params);
+  RecordProperty("share_over_5cm", std::to_string(recon.errors.share_above[0]));
+  EXPECT_LE(recon.errors.share_above[0], 0.005);
+  EXPECT_LE(recon.errors.share_above[1], 0.001);
 }
 
 TEST(RunCommand, TumFr1RpyFastRotationWithinThreeCentimetresSlow) {
