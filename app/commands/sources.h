@@ -27,7 +27,7 @@ struct SourceOptions {
   // that reading files overlaps the pipeline's work; 0 = read when asked. Not for the live
   // openni2 source, which has its own reader thread (newest frame wins). `cofusion run` uses
   // kRunReadAheadFrames: a few frames cover the jitter of file reads, each 640x480 frame holds
-  // about 2.5 MB (colour, depth in metres, mask).
+  // about 2.8 MB (colour, depth in metres, mask).
   int read_ahead_frames = 0;
   static constexpr int kRunReadAheadFrames = 4;
 };

@@ -113,10 +113,14 @@ TEST(ReadAheadSource, ReadsNoMoreThanItsBoundAhead) {
   const ScriptedSource& counted = *inner;
   ReadAheadSource ahead(std::move(inner), 3);
   ASSERT_EQ(ahead.next()->index, 0);
-  std::this_thread::sleep_for(50ms);  // time enough to read far ahead, were it allowed
-  // 3 queued and one read that waits for room.
-  EXPECT_LE(counted.reads(), 1 + 3 + 1);
+  // The reader fills the queue (polled: a loaded machine may be slow to run it), then has time
+  // enough to read far ahead, were it allowed.
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (counted.reads() < 1 + 3 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  std::this_thread::sleep_for(50ms);
+  // Frame 0, 3 queued and one read that waits for room.
   EXPECT_GE(counted.reads(), 1 + 3);
+  EXPECT_LE(counted.reads(), 1 + 3 + 1);
   EXPECT_EQ(ahead.next()->index, 1);
 }
 
