@@ -1,21 +1,28 @@
-// `cofusion bench`: per-stage wall-clock timings on the chosen Vulkan device.
+// `cofusion bench`: per-stage wall-clock timings on the chosen Vulkan device, each pipeline
+// figure also as a ratio to OpenCV's frame-to-frame odometry on the same frames in the same run;
+// --json writes every figure.
 #include <cstdio>
+#include <nlohmann/json.hpp>
 
 #include "commands/commands.h"
 #include "commands/frame_upload.h"
 #include "commands/gpu_options.h"
+#include "commands/odometry_peer.h"
 #include "commands/stage_timer.h"
 #include "commands/sources.h"
+#include "io/atomic_file.h"
 #include "kernels/preprocess.h"
 #include "commands/config.h"
 #include "commands/semantic_source.h"
 #include "slam/co_fusion.h"
 #include "slam/dense_slam.h"
 #include <map>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace cofusion::commands {
 namespace {
+using Json = nlohmann::ordered_json;
 
 struct BenchOptions {
   GpuCliOptions gpu;
@@ -35,6 +42,7 @@ struct BenchOptions {
   // masks and with the built-in detector (when its models are there).
   std::string semantic_input = "synthetic:table_placement";
   bool semantic = true;
+  std::string json_file;  // --json: every figure, machine-readable; empty = none
 };
 
 // Per-kernel GPU time summed over frames (see gpu/kernel_profile.h).
@@ -52,20 +60,27 @@ struct KernelTimes {
 
 // Kernels by GPU time per frame, largest first, and their sum (on lavapipe, which runs one
 // dispatch at a time, the sum is the frame's GPU-busy time).
-void print_kernel_table(const KernelTimes& k) {
-  if (k.frames == 0 || k.entries.empty()) return;
+Json print_kernel_table(const KernelTimes& k) {
+  if (k.frames == 0 || k.entries.empty()) return nullptr;
   std::vector<std::pair<std::string, gpu::KernelProfile::Entry>> rows(k.entries.begin(), k.entries.end());
   std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.second.total_ms > b.second.total_ms; });
   const double n = double(k.frames);
   std::printf("GPU time per kernel (timestamp queries), per frame over %zu frames\n", k.frames);
   std::printf("%-50s %12s %10s %10s\n", "stream group: kernel", "calls/frame", "ms/call", "ms/frame");
   double sum = 0;
+  Json json = {{"frames", k.frames}, {"kernels", Json::array()}};
   for (const auto& [key, e] : rows) {
     std::printf("%-50s %12.1f %10.3f %10.3f\n", key.c_str(), double(e.calls) / n, e.total_ms / double(e.calls),
                 e.total_ms / n);
+    json["kernels"].push_back({{"kernel", key},
+                               {"calls_per_frame", double(e.calls) / n},
+                               {"ms_per_call", e.total_ms / double(e.calls)},
+                               {"ms_per_frame", e.total_ms / n}});
     sum += e.total_ms;
   }
   std::printf("%-50s %12s %10s %10.3f\n", "all kernels", "", "", sum / n);
+  json["all_kernels_ms_per_frame"] = sum / n;
+  return json;
 }
 
 // Halves a frame (and its intrinsics) for the 320x240 figures: depth by nearest neighbour, so
@@ -78,21 +93,47 @@ Frame half_resolution(const Frame& f) {
   return h;
 }
 
-void print_table(const StageTimes& times) {
-  std::printf("%-34s %10s %10s %10s\n", "stage", "median ms", "min ms", "max ms");
+// A pipeline figure over the peer's: how many times OpenCV's odometry time per frame it takes.
+double peer_ratio(double ms, const OdometryPeerFigure& peer) { return ms / peer.median_ms; }
+
+// The table of `times` (median, min, max ms per stage, and with `peer` the median's ratio to it),
+// printed and returned as JSON rows.
+Json print_table(const StageTimes& times, const OdometryPeerFigure* peer = nullptr) {
+  std::printf("%-34s %10s %10s %10s%s\n", "stage", "median ms", "min ms", "max ms", peer ? "   x OpenCV" : "");
+  Json rows = Json::array();
   for (const auto& stage : times.stages()) {
     const auto& s = times.samples(stage);
-    std::printf("%-34s %10.3f %10.3f %10.3f\n", stage.c_str(), times.median(stage), *std::min_element(s.begin(), s.end()),
-                *std::max_element(s.begin(), s.end()));
+    const double median = times.median(stage), min = *std::min_element(s.begin(), s.end()),
+                 max = *std::max_element(s.begin(), s.end());
+    std::printf("%-34s %10.3f %10.3f %10.3f", stage.c_str(), median, min, max);
+    Json row = {{"stage", stage}, {"median_ms", median}, {"min_ms", min}, {"max_ms", max}};
+    if (peer) {
+      std::printf(" %10.2fx", peer_ratio(median, *peer));
+      row["ratio"] = peer_ratio(median, *peer);
+    }
+    std::printf("\n");
+    rows.push_back(std::move(row));
   }
+  return rows;
+}
+
+// Times OpenCV's odometry on `frames`, says so and returns the figure with its JSON.
+OdometryPeerFigure print_peer(const std::vector<Frame>& frames, Json& json) {
+  const OdometryPeerFigure peer = time_opencv_odometry(frames);
+  std::printf("OpenCV %s on these frames: %.3f ms per frame (median of %d frames%s)\n", opencv_odometry_name(),
+              peer.median_ms, peer.frames,
+              peer.failures ? (", " + std::to_string(peer.failures) + " without a pose").c_str() : "");
+  json["opencv_odometry"] = {{"median_ms", peer.median_ms}, {"frames", peer.frames}, {"failures", peer.failures}};
+  return peer;
 }
 
 // The whole pipeline (upload, preprocess, predict, track, fuse) over frames held in memory, so
 // that reading and decoding files is not timed. The first frames (model start-up, pipeline
 // compilation) are not counted.
-void bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const std::string& label) {
+Json bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const std::string& label) {
   if (frames.size() < 4) throw Error("bench: need at least 4 frames of input for the pipeline figures");
   const Intrinsics k = frames[0].intrinsics;
+  Json json = {{"label", label}, {"width", k.width}, {"height", k.height}, {"frames", frames.size()}};
   slam::DenseSlam slam(ctx, k, slam::SlamParams{});
   StageTimes times;
   KernelTimes kernel_times;
@@ -110,12 +151,18 @@ void bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const s
   }
   std::printf("\npipeline %s (%dx%d, %zu frames, first %zu not counted), %u surfels at the end\n", label.c_str(), k.width,
               k.height, frames.size(), skip, slam.model().count());
-  print_table(times);
-  double total = 0;
-  for (double ms : times.samples("whole frame")) total += ms;
-  std::printf("frames per second: %.2f (median frame), %.2f (mean frame)\n", 1000.0 / times.median("whole frame"),
-              1000.0 * double(times.samples("whole frame").size()) / total);
-  print_kernel_table(kernel_times);
+  json["frames_not_counted"] = skip;
+  json["surfels_at_end"] = slam.model().count();
+  // After the pipeline, moments apart: both figures catch the same phase of this machine.
+  const OdometryPeerFigure peer = print_peer(frames, json);
+  json["stages"] = print_table(times, &peer);
+  const double median_ms = times.median("whole frame"), mean_ms = times.mean("whole frame");
+  std::printf("frames per second: %.2f (median frame), %.2f (mean frame); median frame %.2fx OpenCV odometry\n",
+              1000.0 / median_ms, 1000.0 / mean_ms, peer_ratio(median_ms, peer));
+  json["whole_frame"] = {{"median_ms", median_ms}, {"mean_ms", mean_ms}, {"fps_median_frame", 1000.0 / median_ms},
+                         {"fps_mean_frame", 1000.0 / mean_ms}, {"ratio", peer_ratio(median_ms, peer)}};
+  if (Json kernels = print_kernel_table(kernel_times); !kernels.is_null()) json["gpu_kernels"] = std::move(kernels);
+  return json;
 }
 
 // Every frame of `input` (at most max_frames), in memory.
@@ -137,7 +184,7 @@ std::vector<Frame> read_frames(const std::string& input, int max_frames) {
 // frame is timed and grouped by the number of models tracked in it, so the figures read as "fps
 // with N models". Superpixels run on the CPU job system while the GPU tracks; the overlap column
 // says how much of that time was hidden behind GPU work.
-void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
+Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
   const std::vector<Frame> frames = read_frames(input, max_frames);
   const Intrinsics k = frames[0].intrinsics;
   slam::CoFusion slam(ctx, k, PipelineConfig{}.cofusion());
@@ -161,18 +208,32 @@ void bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
   }
   std::printf("\nmulti-object pipeline on %s (%dx%d, %zu frames, first 2 not counted)\n", input.c_str(),
               k.width, k.height, frames.size());
+  Json json = {{"input", input}, {"width", k.width}, {"height", k.height}, {"frames", frames.size()},
+               {"frames_not_counted", 2}};
+  const OdometryPeerFigure peer = print_peer(frames, json);
+  json["by_active_models"] = Json::array();
   for (const auto& [models, times] : by_models) {
-    std::printf("\n%zu active model%s, %zu frames: %.2f frames per second (median frame)\n", models,
-                models == 1 ? "" : "s", times.samples("whole frame").size(), 1000.0 / times.median("whole frame"));
-    print_table(times);
-    if (auto it = kernels_by_models.find(models); it != kernels_by_models.end()) print_kernel_table(it->second);
+    const double median_ms = times.median("whole frame");
+    std::printf("\n%zu active model%s, %zu frames: %.2f frames per second (median frame, %.2fx OpenCV odometry)\n",
+                models, models == 1 ? "" : "s", times.samples("whole frame").size(), 1000.0 / median_ms,
+                peer_ratio(median_ms, peer));
+    Json group = {{"active_models", models},
+                  {"frames", times.samples("whole frame").size()},
+                  {"median_ms", median_ms},
+                  {"fps_median_frame", 1000.0 / median_ms},
+                  {"ratio", peer_ratio(median_ms, peer)}};
+    group["stages"] = print_table(times, &peer);
+    if (auto it = kernels_by_models.find(models); it != kernels_by_models.end())
+      if (Json kernels = print_kernel_table(it->second); !kernels.is_null()) group["gpu_kernels"] = std::move(kernels);
+    json["by_active_models"].push_back(std::move(group));
   }
+  return json;
 }
 
 // One segmentation mode with one source of instance masks over `frames`, as `cofusion run` does
 // it (the detector asynchronous, each frame given the previous frame's detection).
-void bench_semantic_mode(gpu::Context& ctx, const std::vector<Frame>& frames, slam::SegmentationMode mode,
-                         const std::string& masks, int detector_every = 1) {
+Json bench_semantic_mode(gpu::Context& ctx, const std::vector<Frame>& frames, const OdometryPeerFigure& peer,
+                         slam::SegmentationMode mode, const std::string& masks, int detector_every = 1) {
   slam::CoFusionParams params = PipelineConfig{}.cofusion();
   params.semantic.mode = mode;
   slam::CoFusion slam(ctx, frames[0].intrinsics, params);
@@ -199,28 +260,43 @@ void bench_semantic_mode(gpu::Context& ctx, const std::vector<Frame>& frames, sl
   const std::string source = detector_every > 1 ? masks + " 1/" + std::to_string(detector_every) : masks;
   // The mean, not the median: with a detection every few frames the frames that wait for one are
   // a minority, and they are part of the cost.
-  std::printf("  %-9s %-12s %6.2f fps (mean frame %6.1f ms, median %6.1f ms)", slam::to_string(mode), source.c_str(),
-              1000.0 / times.mean("whole frame"), times.mean("whole frame"), times.median("whole frame"));
-  if (detector)
+  const double mean_ms = times.mean("whole frame"), median_ms = times.median("whole frame");
+  std::printf("  %-9s %-12s %6.2f fps (mean frame %6.1f ms, median %6.1f ms; mean %.2fx OpenCV odometry)",
+              slam::to_string(mode), source.c_str(), 1000.0 / mean_ms, mean_ms, median_ms, peer_ratio(mean_ms, peer));
+  Json json = {{"segmentation", slam::to_string(mode)}, {"masks", masks}, {"detector_every", detector_every},
+               {"frames", times.samples("whole frame").size()}, {"mean_ms", mean_ms}, {"median_ms", median_ms},
+               {"fps_mean_frame", 1000.0 / mean_ms}, {"ratio", peer_ratio(mean_ms, peer)}};
+  if (detector) {
     std::printf("; detector %.0f ms per run, ran on %d of %zu frames", detector->mean_detection_ms(),
                 detector->detections_started(), frames.size());
+    json["detector"] = {{"ms_per_run", detector->mean_detection_ms()}, {"runs", detector->detections_started()}};
+  }
   std::printf("\n");
+  return json;
 }
 
 // fps per segmentation mode and mask source (issue: semantic instance segmentation, benchmark).
-void bench_semantic(gpu::Context& ctx, const std::string& input, int max_frames) {
+// The ratios divide the mean frame (the figure these lines quote) by OpenCV's median frame.
+Json bench_semantic(gpu::Context& ctx, const std::string& input, int max_frames) {
   const std::vector<Frame> frames = read_frames(input, max_frames);
   std::printf("\nsegmentation modes on %s (%zu frames, first 2 not counted)\n", input.c_str(), frames.size());
-  bench_semantic_mode(ctx, frames, slam::SegmentationMode::kMotion, "none");
+  Json json = {{"input", input}, {"frames", frames.size()}, {"frames_not_counted", 2}};
+  const OdometryPeerFigure peer = print_peer(frames, json);
+  json["modes"] = Json::array();
+  const auto mode_figure = [&](slam::SegmentationMode mode, const std::string& masks, int detector_every = 1) {
+    json["modes"].push_back(bench_semantic_mode(ctx, frames, peer, mode, masks, detector_every));
+  };
+  mode_figure(slam::SegmentationMode::kMotion, "none");
   const bool has_masks = !frames[0].mask.empty();
   std::error_code ec;
   const bool has_detector = std::filesystem::is_regular_file(default_models_dir() / "centernet.pb", ec);
   for (const auto mode : {slam::SegmentationMode::kSemantic, slam::SegmentationMode::kBoth}) {
-    if (has_masks) bench_semantic_mode(ctx, frames, mode, "masks");
-    if (has_detector) bench_semantic_mode(ctx, frames, mode, "detector");
-    if (has_detector) bench_semantic_mode(ctx, frames, mode, "detector", 4);
+    if (has_masks) mode_figure(mode, "masks");
+    if (has_detector) mode_figure(mode, "detector");
+    if (has_detector) mode_figure(mode, "detector", 4);
   }
   if (!has_detector) std::printf("  (no detector figures: its models are not in %s)\n", default_models_dir().c_str());
+  return json;
 }
 
 // Times `record` submitted alone, `iterations` times, after `warmup` untimed runs (the first
@@ -308,18 +384,27 @@ void add_bench(CLI::App& app) {
   cmd->add_flag("!--no-semantic", options->semantic, "Skip the per-segmentation-mode figures");
   cmd->add_flag("--kernel-profile", options->kernel_profile,
                 "Also print GPU time per kernel for the pipeline and multi-object figures (timestamp queries)");
+  cmd->add_option("--json", options->json_file,
+                  "Also write every figure (ms, fps, ratio to OpenCV's odometry) to this JSON file");
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
+    const std::filesystem::path json_file = options->json_file;
+    if (!json_file.empty()) ensure_writable_directory(json_file.has_parent_path() ? json_file.parent_path() : ".");
     gpu::Context ctx(options->gpu.context_options());
     std::printf("device: %s\n", ctx.description().c_str());
+    Json json = {{"device", ctx.description()},
+                 {"ratio", std::string("pipeline milliseconds / milliseconds per frame of OpenCV ") +
+                               opencv_odometry_name() + " on the same frames, measured in this run (" +
+                               std::to_string(cv::getNumThreads()) + " OpenCV threads)"}};
     if (options->kernels) {
       StageTimes times;
       bench_preprocessing(ctx, Intrinsics{}, *options, times);
       std::printf("\nkernels (built-in test frame)\n");
-      print_table(times);
+      json["kernels"] = {{"input", "built-in test frame 640x480"}, {"stages", print_table(times)}};
       const double frame_ms = times.median("upload 640x480") + times.median("preprocess whole frame 640x480");
       std::printf("preprocessing throughput: %.1f frames per second (upload + whole-frame preprocessing)\n",
                   1000.0 / frame_ms);
+      json["kernels"]["preprocessing_fps"] = 1000.0 / frame_ms;
     }
     // Attached after the per-kernel figures: their wall-clock timings should not include queries.
     if (options->kernel_profile) ctx.set_kernel_profile(std::make_shared<gpu::KernelProfile>());
@@ -335,13 +420,22 @@ void add_bench(CLI::App& app) {
         half.push_back(half_resolution(*frame));
         full.push_back(std::move(*frame));
       }
-      bench_pipeline(ctx, full, "full resolution");
-      bench_pipeline(ctx, half, "half resolution");
+      json["pipeline"] = Json::array();
+      for (auto [frames, label] : {std::pair{&full, "full resolution"}, std::pair{&half, "half resolution"}}) {
+        json["pipeline"].push_back(bench_pipeline(ctx, *frames, label));
+        json["pipeline"].back()["input"] = options->input;
+      }
     }
-    if (options->models)
-      for (const auto& input : options->model_inputs) bench_models(ctx, input, options->frames);
-    if (options->semantic) bench_semantic(ctx, options->semantic_input, options->frames);
+    if (options->models) {
+      json["models"] = Json::array();
+      for (const auto& input : options->model_inputs) json["models"].push_back(bench_models(ctx, input, options->frames));
+    }
+    if (options->semantic) json["semantic"] = bench_semantic(ctx, options->semantic_input, options->frames);
     if (ctx.validation_error_count() > 0) throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors");
+    if (!json_file.empty()) {
+      write_text_atomically(json_file, json.dump(2) + "\n");
+      std::printf("\nwrote %s\n", json_file.c_str());
+    }
   });
 }
 

@@ -128,6 +128,7 @@ int run(const RunOptions& o) {
   source_options.depth_correction = o.depth_correction;
   source_options.max_frames = o.max_frames;
   source_options.seed = o.seed;
+  source_options.read_ahead_frames = SourceOptions::kRunReadAheadFrames;
   auto source = open_source(o.input, source_options);
   const Intrinsics intrinsics = source->intrinsics();
   if (!intrinsics.plausible()) throw Error("input " + o.input + ": implausible intrinsics " + intrinsics.to_string());

@@ -3,6 +3,7 @@
 #include "commands/sources.h"
 
 #include "common/error.h"
+#include "io/read_ahead_source.h"
 #include "io/source_adaptors.h"
 #include "io/source_spec.h"
 #include "synthetic/synthetic_source.h"
@@ -12,6 +13,8 @@ namespace cofusion {
 std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOptions& options) {
   if (options.max_frames && *options.max_frames < 0)
     throw Error("input '" + spec + "': --max-frames must not be negative");
+  if (options.read_ahead_frames < 0)
+    throw Error("input '" + spec + "': frames read ahead must not be negative");
   const SourceSpec parsed = parse_source_spec(spec);
   std::unique_ptr<FrameSource> source;
   if (parsed.scheme == "synthetic") {
@@ -25,6 +28,9 @@ std::unique_ptr<FrameSource> open_source(const std::string& spec, const SourceOp
   }
   // Every source honours max_frames, whether or not it could stop early by itself.
   if (options.max_frames) source = std::make_unique<LimitedSource>(std::move(source), *options.max_frames);
+  // Outside the limit, so that the reader never reads past it.
+  if (options.read_ahead_frames > 0 && parsed.scheme != "openni2")
+    source = std::make_unique<ReadAheadSource>(std::move(source), options.read_ahead_frames);
   return source;
 }
 

@@ -23,6 +23,13 @@ struct SourceOptions {
   std::optional<double> depth_correction;
   std::optional<int> max_frames;  // stop after this many frames
   unsigned seed = 0;              // synthetic scenes: noise seed override (0 = the scene's own)
+  // Frames (bad ones included) read and decoded ahead of the caller on a thread of their own, so
+  // that reading files overlaps the pipeline's work; 0 = read when asked. Not for the live
+  // openni2 source, which has its own reader thread (newest frame wins). `cofusion run` uses
+  // kRunReadAheadFrames: a few frames cover the jitter of file reads, each 640x480 frame holds
+  // about 2.8 MB (colour, depth in metres, mask).
+  int read_ahead_frames = 0;
+  static constexpr int kRunReadAheadFrames = 4;
 };
 
 // Throws cofusion::Error with a one-line reason (unknown scheme, missing path, bad intrinsics ...).

@@ -412,6 +412,101 @@ TEST(BenchCommand, SemanticFiguresPerModeAndMaskSource) {
   }
 }
 
+// Each figure's ratio is its milliseconds over the OpenCV odometry figure of the frames it was
+// measured on (rows of stages carry it as `ratio`).
+void expect_ratios_of(const nlohmann::json& stages, double opencv_ms) {
+  ASSERT_FALSE(stages.empty());
+  for (const auto& row : stages) {
+    const double ms = row["median_ms"].get<double>();
+    EXPECT_GT(ms, 0.0) << row.dump();
+    EXPECT_NEAR(row["ratio"].get<double>(), ms / opencv_ms, 1e-9 * ms / opencv_ms) << row.dump();
+  }
+}
+
+double opencv_ms_of(const nlohmann::json& group, int frames) {
+  EXPECT_EQ(group["opencv_odometry"]["frames"].get<int>(), frames - 1) << group.dump();  // all but the first
+  const double ms = group["opencv_odometry"]["median_ms"].get<double>();
+  EXPECT_GT(ms, 0.0);
+  return ms;
+}
+
+// Every figure goes to --json, each pipeline figure also as a ratio to OpenCV's frame-to-frame
+// odometry timed on the same frames in the same run; the terminal shows the ratios too.
+TEST(BenchCommand, JsonHasEveryFigureAndItsRatioToOpenCvOdometry) {
+  const fs::path json_path = fresh_temp_dir() / "bench.json";
+  const Result r = run_cofusion("bench --iterations 2 --warmup 1 --frames 5 --models-input synthetic:two_objects "
+                                "--semantic-input synthetic:walking_people --json " + json_path.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("x OpenCV odometry"));
+  EXPECT_THAT(r.output, HasSubstr("OpenCV RgbdICPOdometry (OpenCV 4."));
+  const auto j = read_json(json_path);
+  EXPECT_THAT(j["ratio"].get<std::string>(), HasSubstr("RgbdICPOdometry"));
+  EXPECT_FALSE(j["device"].get<std::string>().empty());
+
+  // Kernels on the built-in frame: milliseconds only (no input to run OpenCV on).
+  std::vector<std::string> kernel_stages;
+  for (const auto& row : j["kernels"]["stages"]) {
+    kernel_stages.push_back(row["stage"].get<std::string>());
+    EXPECT_FALSE(row.contains("ratio"));
+  }
+  EXPECT_THAT(kernel_stages, ::testing::Contains("preprocess whole frame 640x480"));
+  EXPECT_GT(j["kernels"]["preprocessing_fps"].get<double>(), 0.0);
+
+  ASSERT_EQ(j["pipeline"].size(), 2u);
+  for (const auto& [pipeline, width] : {std::pair{j["pipeline"][0], 640}, std::pair{j["pipeline"][1], 320}}) {
+    EXPECT_EQ(pipeline["width"].get<int>(), width);
+    EXPECT_EQ(pipeline["input"], "synthetic:static_room");
+    const double opencv_ms = opencv_ms_of(pipeline, 5);
+    expect_ratios_of(pipeline["stages"], opencv_ms);
+    const auto& whole = pipeline["whole_frame"];
+    const double median_ms = whole["median_ms"].get<double>();
+    EXPECT_NEAR(whole["ratio"].get<double>(), median_ms / opencv_ms, 1e-9 * median_ms / opencv_ms);
+    EXPECT_NEAR(whole["fps_median_frame"].get<double>(), 1000.0 / median_ms, 1e-9 * 1000.0 / median_ms);
+    std::vector<std::string> stages;
+    for (const auto& row : pipeline["stages"]) stages.push_back(row["stage"].get<std::string>());
+    EXPECT_THAT(stages, ::testing::IsSupersetOf({"preprocess", "track", "fuse", "whole frame"}));
+  }
+
+  // Frames grouped by the number of active models: every counted frame in one group.
+  ASSERT_EQ(j["models"].size(), 1u);
+  const auto& models = j["models"][0];
+  EXPECT_EQ(models["input"], "synthetic:two_objects");
+  const double models_opencv_ms = opencv_ms_of(models, 5);
+  int grouped = 0, previous_count = 0;
+  for (const auto& group : models["by_active_models"]) {
+    EXPECT_GT(group["active_models"].get<int>(), previous_count);  // one group per count, ascending
+    previous_count = group["active_models"].get<int>();
+    grouped += group["frames"].get<int>();
+    const double median_ms = group["median_ms"].get<double>();
+    EXPECT_NEAR(group["ratio"].get<double>(), median_ms / models_opencv_ms, 1e-9 * median_ms / models_opencv_ms);
+    expect_ratios_of(group["stages"], models_opencv_ms);
+  }
+  EXPECT_EQ(grouped, 5 - 2);
+
+  // Per segmentation mode: the mean frame over OpenCV's median.
+  const auto& semantic = j["semantic"];
+  EXPECT_EQ(semantic["input"], "synthetic:walking_people");
+  const double semantic_opencv_ms = opencv_ms_of(semantic, 5);
+  std::vector<std::string> modes;
+  for (const auto& mode : semantic["modes"]) {
+    modes.push_back(mode["segmentation"].get<std::string>() + " " + mode["masks"].get<std::string>());
+    const double mean_ms = mode["mean_ms"].get<double>();
+    EXPECT_NEAR(mode["ratio"].get<double>(), mean_ms / semantic_opencv_ms, 1e-9 * mean_ms / semantic_opencv_ms);
+    EXPECT_NEAR(mode["fps_mean_frame"].get<double>(), 1000.0 / mean_ms, 1e-9 * 1000.0 / mean_ms);
+  }
+  EXPECT_THAT(modes, ::testing::IsSupersetOf({"motion none", "semantic masks", "both masks"}));
+}
+
+// A --json path that cannot be written fails at once, naming it, before any figure is measured.
+TEST(BenchCommand, UnwritableJsonPathFailsBeforeMeasuring) {
+  const fs::path dir = fresh_temp_dir();
+  std::ofstream(dir / "a-file") << "not a folder";
+  const Result r = run_cofusion("bench --json " + (dir / "a-file" / "bench.json").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("a-file"));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("device:")));
+}
+
 TEST(RunCommand, EverySubcommandHasHelp) {
   for (const char* sub : {"run", "bench", "eval", "generate", "convert"}) {
     const Result r = run_cofusion(std::string(sub) + " --help");
