@@ -1,16 +1,14 @@
 #!/usr/bin/env bash
-# The tests: installs what is missing (apt-get), builds with warnings as errors, runs every
+# The tests: installs what is missing (apt-get), builds (the same build as run.sh), runs every
 # GoogleTest case through ctest with Vulkan validation on. Real-data cases use $COFUSION_DATA
 # (default: ../shared/data beside this checkout) and skip when it is absent.
 # Quick local loop without the slow real-data cases: ctest --test-dir build -E Slow
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-if [ -z "${COFUSION_DATA:-}" ]; then
-  for d in "$root/../shared/data" /work/shared/data; do
-    if [ -d "$d" ]; then export COFUSION_DATA="$(cd "$d" && pwd)"; break; fi
-  done
+if [ -z "${COFUSION_DATA:-}" ] && [ -d "$root/../shared/data" ]; then
+  export COFUSION_DATA="$(cd "$root/../shared/data" && pwd)"
 fi
 "$root/.ci/install-deps.sh"
 "$root/.ci/fetch-models.sh" || echo "test.sh: no detector models (see above); the semantic detector is unavailable"
-"$root/.ci/build.sh" -DCOFUSION_WERROR=ON
+"$root/.ci/build.sh"
 ctest --test-dir "$root/build" --output-on-failure --parallel 2 --timeout 900

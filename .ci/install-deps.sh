@@ -32,10 +32,21 @@ command -v node >/dev/null 2>&1 || missing+=(nodejs)
 command -v npm >/dev/null 2>&1 || missing+=(npm)
 
 if [ ${#missing[@]} -gt 0 ]; then
-  echo "install-deps: installing ${missing[*]}"
+  # apt's output goes to a log in the build folder (outside the tracked files), shown only when
+  # the installation fails; the terminal gets one line.
+  root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+  mkdir -p "$root/build"
+  log="$root/build/install-deps.log"
+  echo -n "install-deps: installing ${#missing[@]} packages (apt's log: build/install-deps.log) ... "
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   export DEBIAN_FRONTEND=noninteractive
-  $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+  if { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"; } \
+      >"$log" 2>&1 </dev/null; then
+    echo "done"
+  else
+    echo "failed; apt's log:"
+    cat "$log" >&2
+    exit 1
+  fi
 fi

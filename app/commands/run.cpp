@@ -12,10 +12,13 @@
 #include "commands/config.h"
 #include "commands/frame_gate.h"
 #include "commands/gpu_options.h"
+#include "commands/progress.h"
+#include "commands/run_report.h"
 #include "commands/semantic_source.h"
 #include "commands/sources.h"
 #include "commands/stage_timer.h"
 #include "commands/stop_signals.h"
+#include "eval/trajectory_metrics.h"
 #include "io/atomic_file.h"
 #include "io/instance_classes.h"
 #include "io/output_folder.h"
@@ -106,6 +109,41 @@ std::vector<std::string> split_list(const std::string& text) {
   return out;
 }
 
+// The camera's ATE against the input's ground truth (the poses of the processed frames that have
+// one); nullopt when fewer than two stamps match, as evaluate_ate.py needs (the report never fails
+// the run).
+std::optional<CameraAccuracy> camera_accuracy(const Trajectory& groundtruth, const Trajectory& camera) {
+  if (groundtruth.size() < 2) return std::nullopt;
+  try {
+    const eval::AteResult ate = eval::compute_ate(groundtruth, camera);
+    return CameraAccuracy{ate.translation_m.rmse, ate.errors_m.size()};
+  } catch (const Error&) {
+    return std::nullopt;
+  }
+}
+
+// The final table's rows: snapshots[k] with the surfels of models[k] (empty when the device could
+// not hand the models back), the files write_models() wrote and, for objects, the trajectory file
+// when the model trajectories were written.
+std::vector<ModelRow> model_rows(const std::vector<slam::ModelSnapshot>& snapshots,
+                                 const std::vector<SurfelCloud>& models, const std::vector<fs::path>& written,
+                                 const fs::path& out_dir, bool trajectories_written) {
+  std::vector<ModelRow> rows;
+  for (size_t k = 0; k < snapshots.size(); ++k) {
+    const auto& m = snapshots[k];
+    const bool has_trajectory = trajectories_written && m.id != 0;
+    rows.push_back({.id = m.id,
+                    .class_name = class_name_token(m.class_name),
+                    .state = slam::to_string(m.state),
+                    .surfels = k < models.size() ? models[k].surfels.size() : 0,
+                    .first_frame = m.first_frame,
+                    .last_frame = m.last_frame,
+                    .files = model_files_cell(written, out_dir, m.id),
+                    .trajectory = has_trajectory ? "trajectories/model-" + std::to_string(m.id) + ".txt" : "-"});
+  }
+  return rows;
+}
+
 // The exit status: 0, or 128 + the signal that stopped the run (its outputs written).
 int run(const RunOptions& o) {
   if (handle_list_devices(o.gpu)) return 0;
@@ -175,7 +213,9 @@ int run(const RunOptions& o) {
   std::exception_ptr fault;  // the error that ended the run after its first frame
   const auto start = std::chrono::steady_clock::now();
   int frames = 0;
-  const bool tty = ::isatty(STDOUT_FILENO);
+  ProgressPrinter progress(::isatty(STDOUT_FILENO));
+  const std::optional<int> total_frames = source->size();
+  Trajectory groundtruth;  // the input's camera poses of the processed frames, where it has them
   Pose T_world_camera_last = Pose::Identity();
   std::optional<Frame> last_frame;  // shares the pixels; insets are made only when drawn
   std::vector<uint16_t> last_labels;
@@ -230,8 +270,8 @@ int run(const RunOptions& o) {
     while (true) {
       if (const int signal = stop_signals.requested()) {
         stop_reason = StopSignals::name(signal);
-        std::printf("%s%s: stopping after %d frames; writing their outputs (a second %s ends at once)\n",
-                    tty ? "\n" : "", stop_reason.c_str(), frames, stop_reason.c_str());
+        progress.message(stop_reason + ": stopping after " + std::to_string(frames) +
+                         " frames; writing their outputs (a second " + stop_reason + " ends at once)");
         break;
       }
       if (viewer) {
@@ -293,19 +333,20 @@ int run(const RunOptions& o) {
         times.add("superpixels overlapped with GPU", r.superpixels_overlap_ms);
       }
       camera.push_back({frame->timestamp_s, r.T_world_camera});
+      if (frame->T_world_camera_gt) groundtruth.push_back({frame->timestamp_s, *frame->T_world_camera_gt});
       timestamps.push_back(frame->timestamp_s);
       ++frames;  // processed: its pose is in the trajectory
       output_folder.keep();  // from the first processed frame on, the run has output to write
       T_world_camera_last = r.T_world_camera;
       if (r.camera_state == slam::CameraState::kLost) {
         failed_frames.push_back(frame->index);
-        std::printf("%sframe %d: camera lost (%s); pose not updated, frame not fused\n", tty ? "\n" : "", frame->index,
-                    r.camera_tracking.failure_reason.c_str());
+        progress.message("frame " + std::to_string(frame->index) + ": camera lost (" +
+                         r.camera_tracking.failure_reason + "); pose not updated, frame not fused");
       } else if (r.camera_state == slam::CameraState::kRecovered) {
         recovered_frames.push_back(frame->index);
       }
       for (const auto& e : r.events) {
-        std::printf("%s%s\n", tty ? "\n" : "", e.c_str());
+        progress.message(e);
         events.push_back(e);
       }
       if (o.save_segmentation) {
@@ -323,10 +364,14 @@ int run(const RunOptions& o) {
       unsigned surfels = 0;
       for (const auto& m : r.active) surfels += m.surfels;
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::printf("%sframe %d  %.1f fps  models %zu  surfels %u  camera inliers %.0f%%%s", tty ? "\r" : "",
-                  frames, frames / elapsed, r.active.size(), surfels, 100.0 * r.camera_tracking.inlier_ratio,
-                  tty ? "   " : "\n");
-      std::fflush(stdout);
+      progress.update({.processed = frames,
+                       .read = frame->index + 1,
+                       .total = total_frames,
+                       .fps = frames / elapsed,
+                       .models = r.active.size(),
+                       .surfels = surfels,
+                       .inlier_ratio = r.camera_tracking.inlier_ratio,
+                       .camera_state = slam::to_string(r.camera_state)});
       if (viewer || !o.screenshot.empty()) {
         last_frame = *frame;
         last_labels = std::move(r.labels);
@@ -343,10 +388,10 @@ int run(const RunOptions& o) {
     if (frames == 0) throw;  // nothing to keep
     fault = std::current_exception();
     stop_reason = std::string("error: ") + e.what();
-    std::fprintf(stderr, "%serror after %d frames: %s\nwriting the outputs of those frames\n", tty ? "\n" : "", frames,
-                 e.what());
+    progress.message("error after " + std::to_string(frames) + " frames: " + e.what() +
+                         "\nwriting the outputs of those frames", stderr);
   }
-  if (tty) std::printf("\n");
+  progress.finish();
   if (frames == 0 && !stop_reason.empty()) throw Error(stop_reason + " before the first frame; nothing written");
   if (frames == 0) throw Error("input " + o.input + " has no frames");
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -367,6 +412,7 @@ int run(const RunOptions& o) {
 
   attempt("trajectories/camera.txt", [&] { write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera); });
   const std::vector<slam::ModelSnapshot> snapshots = slam.models();
+  bool model_trajectories_written = false;
   attempt("the model trajectories", [&] {
     for (const auto& m : snapshots) {
       if (m.id == 0) continue;
@@ -375,15 +421,18 @@ int run(const RunOptions& o) {
         trajectory.push_back({timestamps.at(static_cast<size_t>(frame_index)), T_world_model});
       write_tum_trajectory(out_dir / "trajectories" / ("model-" + std::to_string(m.id) + ".txt"), trajectory);
     }
+    model_trajectories_written = true;
   });
   if (o.save_segmentation)
     attempt("segmentation/classes.txt",
             [&] { write_segmentation_classes(out_dir / "segmentation" / kInstanceClassesFile, snapshots); });
   std::vector<SurfelCloud> all_models;  // stays empty when the device cannot hand the models back
+  std::vector<fs::path> model_files;
   attempt("the models", [&] {
     all_models = clouds(false);
-    write_models(all_models, camera, out_dir);
+    model_files = write_models(all_models, camera, out_dir);
   });
+  const std::optional<CameraAccuracy> accuracy = camera_accuracy(groundtruth, camera);
   size_t total_surfels = 0;
   for (const auto& cloud : all_models) total_surfels += cloud.surfels.size();
   if (!o.screenshot.empty())
@@ -419,6 +468,7 @@ int run(const RunOptions& o) {
   summary["tracking_failures"] = failed_frames;
   summary["camera"] = {{"lost_frames", failed_frames.size()}, {"recoveries", recovered_frames.size()},
                        {"recovered_at", recovered_frames}};
+  if (accuracy) summary["camera"]["ate_rmse_m"] = accuracy->ate_rmse_m;
   summary["models"] = nlohmann::json::array();
   for (size_t k = 0; k < snapshots.size(); ++k) {
     const auto& m = snapshots[k];
@@ -443,6 +493,8 @@ int run(const RunOptions& o) {
               "wrote %s%s\n",
               frames, seconds, frames / seconds, snapshots.size(), total_surfels, failed_frames.size(),
               gate.skipped().size(), out_dir.c_str(), stop_reason.empty() ? "" : " (incomplete)");
+  const auto rows = model_rows(snapshots, all_models, model_files, out_dir, model_trajectories_written);
+  std::printf("%s%s", model_table(rows).c_str(), report_footer(out_dir, accuracy).c_str());
   if (fault) std::rethrow_exception(fault);
   // Stopped by a signal: the shell's convention for it, 128 + the signal number.
   return stop_signals.requested() ? 128 + stop_signals.requested() : 0;

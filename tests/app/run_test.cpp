@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 
 #include "eval/report.h"
 #include "eval/trajectory_metrics.h"
@@ -21,6 +22,7 @@ namespace cofusion::test {
 namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 struct Result {
   int exit_code = -1;
@@ -301,6 +303,99 @@ TEST(RunCommand, MovingObjectsGetModelTrajectoriesSummaryAndLabelImagesSlow) {
                                 (out / "segmentation").string());
   ASSERT_EQ(e.exit_code, 0) << e.output;
   EXPECT_THAT(e.output, HasSubstr("\"frames_evaluated\": " + std::to_string(frames))) << e.output;
+}
+
+// The words of each line of `text`.
+std::vector<std::vector<std::string>> words_per_line(const std::string& text) {
+  std::vector<std::vector<std::string>> out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream line_in(line);
+    out.emplace_back();
+    for (std::string w; line_in >> w;) out.back().push_back(w);
+  }
+  return out;
+}
+
+// The table a run ends with: a header, then one row of eight one-word cells per model of
+// summary.json, naming files that exist.
+void expect_model_table(const std::string& output, const fs::path& out) {
+  const auto lines = words_per_line(output);
+  const std::vector<std::string> header{"id", "class", "state", "surfels", "first", "last", "files", "trajectory"};
+  const auto at = std::find(lines.begin(), lines.end(), header);
+  EXPECT_NE(at, lines.end()) << output;
+  if (at == lines.end()) return;
+  const auto models = read_json(out / "summary.json")["models"];
+  size_t row = static_cast<size_t>(at - lines.begin()) + 1;
+  for (const auto& m : models) {
+    EXPECT_LT(row, lines.size()) << output;
+    if (row >= lines.size()) break;
+    const auto& cells = lines[row++];
+    EXPECT_EQ(cells.size(), header.size()) << output;
+    if (cells.size() != header.size()) continue;
+    const std::string id = std::to_string(m["id"].get<int>());
+    EXPECT_EQ(cells[0], id);
+    std::string class_name = m["class"].get<std::string>();
+    std::replace(class_name.begin(), class_name.end(), ' ', '_');
+    EXPECT_EQ(cells[1], class_name);
+    EXPECT_EQ(cells[2], m["state"].get<std::string>());
+    EXPECT_EQ(cells[3], std::to_string(m["surfels"].get<size_t>()));
+    EXPECT_EQ(cells[4], std::to_string(m["first_frame"].get<int>()));
+    EXPECT_EQ(cells[5], std::to_string(m["last_frame"].get<int>()));
+    EXPECT_EQ(cells[6], "models/model-" + id + ".{glb,ply}");
+    for (const char* ext : {".glb", ".ply"}) EXPECT_TRUE(fs::exists(out / "models" / ("model-" + id + ext))) << id;
+    if (id == "0") {
+      EXPECT_EQ(cells[7], "-") << "the background has no trajectory of its own";
+    } else {
+      EXPECT_EQ(cells[7], "trajectories/model-" + id + ".txt");
+      EXPECT_TRUE(fs::exists(out / cells[7])) << cells[7];
+    }
+  }
+  // Nothing after the rows looks like another one.
+  if (row < lines.size()) {
+    EXPECT_NE(lines[row].size(), header.size()) << output;
+  }
+}
+
+// `cofusion run` ends with its model table and, on an input with ground truth, the camera's ATE:
+// the value `eval` computes from the written trajectory, also in summary.json. table_placement's
+// first 30 frames: the background and the box carried in (more models would only add rows).
+TEST(RunCommand, EndsWithTheModelTableAndTheCameraAte) {
+  const fs::path out = fresh_temp_dir();
+  const int frames = 30;
+  const Result r = run_cofusion("run --headless --input synthetic:table_placement --max-frames " +
+                                std::to_string(frames) + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_GE(summary["models"].size(), 2u) << summary["models"].dump();
+  expect_model_table(r.output, out);
+
+  const synthetic::SyntheticSequence scene(synthetic::load_scene("table_placement"), 0, frames);
+  const double ate_m = camera_ate_m(scene.camera_trajectory(), out);
+  EXPECT_NEAR(summary["camera"]["ate_rmse_m"].get<double>(), ate_m, 1e-6) << "trajectory files hold 1 um or better";
+  const size_t line = r.output.find("camera ATE ");
+  ASSERT_NE(line, std::string::npos) << r.output;
+  double printed_cm = -1;
+  int compared = 0;
+  ASSERT_EQ(std::sscanf(r.output.c_str() + line, "camera ATE %lf cm RMSE over %d frames", &printed_cm, &compared), 2)
+      << r.output.substr(line);
+  EXPECT_NEAR(printed_cm, 100.0 * ate_m, 0.005 + 1e-4) << "printed to 0.01 cm";
+  EXPECT_EQ(compared, frames);
+  EXPECT_THAT(r.output.substr(line), HasSubstr("against the input's ground truth"));
+}
+
+// Without ground truth (a TUM folder without groundtruth.txt) the table is there and the ATE is not.
+TEST(RunCommand, EndsWithoutAnAteWhenTheInputHasNoGroundTruth) {
+  const fs::path tum = fresh_temp_dir() / "tum";
+  const Result g = run_cofusion("generate static_room --max-frames 3 --output " + tum.string());
+  ASSERT_EQ(g.exit_code, 0) << g.output;
+  ASSERT_TRUE(fs::remove(tum / "groundtruth.txt"));
+  const fs::path out = fresh_temp_dir();
+  const Result r = run_cofusion("run --headless --input tum:" + tum.string() + " --output " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  expect_model_table(r.output, out);
+  EXPECT_THAT(r.output, Not(HasSubstr("ATE"))) << r.output;
+  EXPECT_FALSE(read_json(out / "summary.json")["camera"].contains("ate_rmse_m"));
 }
 
 TEST(RunCommand, MissingInputFailsWithOneLineReasonAndNoOutput) {
