@@ -145,22 +145,125 @@ std::vector<ModelRow> model_rows(const std::vector<slam::ModelSnapshot>& snapsho
 }
 
 // The exit status: 0, or 128 + the signal that stopped the run (its outputs written).
-int run(const RunOptions& o) {
-  if (handle_list_devices(o.gpu)) return 0;
-  const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
-  slam::CoFusionParams params = config.cofusion();
-  {
-    const auto mode = slam::parse_segmentation_mode(o.segmentation);
-    if (!mode) throw Error("--segmentation must be motion, semantic or both, not '" + o.segmentation + "'");
-    params.semantic.mode = *mode;
-    params.semantic.exclude = split_list(o.exclude);
-    params.semantic.classes = split_list(o.classes);
-    for (const auto& c : params.semantic.exclude) require_class_name(c, "--exclude");
-    for (const auto& c : params.semantic.classes) require_class_name(c, "--classes");
+// What summary.json reports of a run (see the README's Outputs).
+struct SummaryInputs {
+  int frames = 0;
+  const std::string& stop_reason;  // empty: the run reached the end of its input
+  double seconds = 0;
+  std::string device, input;
+  const std::vector<SkippedFrame>& skipped;
+  long dropped_frames = 0;
+  const std::vector<std::string>& output_errors;
+  const StageTimes& times;
+  const std::vector<int>& failed_frames;
+  const std::vector<int>& recovered_frames;
+  const std::optional<CameraAccuracy>& accuracy;
+  const std::vector<slam::ModelSnapshot>& snapshots;
+  const std::vector<SurfelCloud>& all_models;  // empty when the device could not hand them back
+  const std::vector<std::string>& events;
+  const slam::SemanticParams& semantic;
+  const std::string& semantic_source;
+  const AsyncDetector* detector = nullptr;
+};
+
+nlohmann::ordered_json summary_json(const SummaryInputs& f) {
+  nlohmann::ordered_json summary;
+  summary["frames"] = f.frames;
+  // false when a signal or an error ended the run before its input did (stop_reason says which);
+  // the outputs then cover the frames processed.
+  summary["complete"] = f.stop_reason.empty();
+  if (!f.stop_reason.empty()) summary["stop_reason"] = f.stop_reason;
+  summary["fps"] = f.frames / f.seconds;
+  summary["device"] = f.device;
+  summary["input"] = f.input;
+  summary["skipped_frames"] = nlohmann::json::array();
+  for (const auto& skipped : f.skipped)
+    summary["skipped_frames"].push_back({{"frame", skipped.frame}, {"reason", skipped.reason}});
+  summary["dropped_frames"] = f.dropped_frames;
+  if (!f.output_errors.empty()) summary["output_errors"] = f.output_errors;
+  for (const auto& stage : f.times.stages()) summary["stages_ms"][stage] = f.times.mean(stage);
+  summary["tracking_failures"] = f.failed_frames;
+  summary["camera"] = {{"lost_frames", f.failed_frames.size()}, {"recoveries", f.recovered_frames.size()},
+                       {"recovered_at", f.recovered_frames}};
+  if (f.accuracy) summary["camera"]["ate_rmse_m"] = f.accuracy->ate_rmse_m;
+  summary["models"] = nlohmann::json::array();
+  for (size_t k = 0; k < f.snapshots.size(); ++k) {
+    const auto& m = f.snapshots[k];
+    summary["models"].push_back({{"id", m.id},
+                                 {"state", slam::to_string(m.state)},
+                                 {"surfels", k < f.all_models.size() ? f.all_models[k].surfels.size() : 0},
+                                 {"first_frame", m.first_frame},
+                                 {"last_frame", m.last_frame},
+                                 {"class", m.class_name}, {"class_confidence", m.class_confidence}});
   }
+  summary["events"] = f.events;
+  summary["semantic"] = {{"segmentation", slam::to_string(f.semantic.mode)},
+                         {"source", f.semantic_source.empty() ? "none" : f.semantic_source},
+                         {"exclude", f.semantic.exclude},
+                         {"classes", f.semantic.classes}};
+  if (f.detector)
+    summary["semantic"]["detector"] = {{"detections", f.detector->detections_started()},
+                                       {"frames_with_masks", f.detector->results_used()},
+                                       {"mean_ms", f.detector->mean_detection_ms()}};
+  return summary;
+}
+
+// The pipeline's parameters: the configuration's, with the command line's segmentation mode and
+// class lists (checked here, before anything is opened).
+slam::CoFusionParams pipeline_params(const RunOptions& o, const PipelineConfig& config) {
+  slam::CoFusionParams params = config.cofusion();
+  const auto mode = slam::parse_segmentation_mode(o.segmentation);
+  if (!mode) throw Error("--segmentation must be motion, semantic or both, not '" + o.segmentation + "'");
+  params.semantic.mode = *mode;
+  params.semantic.exclude = split_list(o.exclude);
+  params.semantic.classes = split_list(o.classes);
+  for (const auto& c : params.semantic.exclude) require_class_name(c, "--exclude");
+  for (const auto& c : params.semantic.classes) require_class_name(c, "--classes");
   if (!o.semantic_source.empty() && o.semantic_source != "masks" && o.semantic_source != "detector" &&
       o.semantic_source != "none")
     throw Error("--semantic-source must be masks, detector or none, not '" + o.semantic_source + "'");
+  return params;
+}
+
+// Where the instance masks come from when --semantic-source does not say, decided at the first
+// frame: the input's masks, else the detector when its models are there, else none.
+std::string choose_semantic_source(const Frame& first, bool motion_segmentation) {
+  std::string source;
+  if (!first.mask.empty()) {
+    source = "masks";
+  } else if (std::error_code ec; fs::is_regular_file(default_models_dir() / "centernet.pb", ec)) {
+    source = "detector";
+  } else {
+    std::printf("no instance masks: the input has none and the detector's models are not in %s (run "
+                ".ci/fetch-models.sh or set COFUSION_MODELS); no class is excluded\n",
+                default_models_dir().c_str());
+    return "none";
+  }
+  if (!motion_segmentation) {
+    std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
+    return "none";
+  }
+  std::printf("instance masks: %s\n", source.c_str());
+  return source;
+}
+
+// segmentation/<timestamp>.png: the model id per pixel (0 = background, 65535 = no model: no depth
+// or unassigned), named by the frame's timestamp (6 decimals, as in the trajectories), which is
+// how TUM folders and generated scenes name their images and masks: `eval seg` pairs them by name.
+void write_label_image(const fs::path& dir, const Frame& frame, std::vector<uint16_t>& labels) {
+  const cv::Mat image(frame.depth_m.rows, frame.depth_m.cols, CV_16UC1, labels.data());
+  char name[64];
+  std::snprintf(name, sizeof name, "%.6f.png", frame.timestamp_s);
+  write_atomically(dir / name, [&](const fs::path& tmp) {
+    if (!cv::imwrite(tmp.string() + ".png", image)) throw Error("PNG encoding failed");
+    fs::rename(tmp.string() + ".png", tmp);
+  });
+}
+
+int run(const RunOptions& o) {
+  if (handle_list_devices(o.gpu)) return 0;
+  const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
+  const slam::CoFusionParams params = pipeline_params(o, config);
   SourceOptions source_options;
   source_options.intrinsics = o.intrinsics;
   source_options.depth_correction = o.depth_correction;
@@ -294,24 +397,7 @@ int run(const RunOptions& o) {
       skipped_before = gate.skipped().size();
       const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
       const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
-      if (semantic_source.empty()) {
-        if (!frame->mask.empty()) {
-          semantic_source = "masks";
-        } else if (std::error_code ec; fs::is_regular_file(default_models_dir() / "centernet.pb", ec)) {
-          semantic_source = "detector";
-        } else {
-          semantic_source = "none";
-          std::printf("no instance masks: the input has none and the detector's models are not in %s (run "
-                      ".ci/fetch-models.sh or set COFUSION_MODELS); no class is excluded\n",
-                      default_models_dir().c_str());
-        }
-        if (semantic_source != "none" && !config.motion_segmentation) {
-          semantic_source = "none";
-          std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
-        }
-        if (semantic_source != "none") std::printf("instance masks: %s\n", semantic_source.c_str());
-        if (semantic_source == "detector") detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
-      }
+      if (semantic_source.empty()) semantic_source = choose_semantic_source(*frame, config.motion_segmentation);
       if (semantic_source == "masks" && frame->mask.empty())
         throw Error("frame " + std::to_string(frame->index) + " has no instance mask (--semantic-source masks)");
       if (semantic_source == "detector" && !detector)
@@ -349,18 +435,7 @@ int run(const RunOptions& o) {
         progress.message(e);
         events.push_back(e);
       }
-      if (o.save_segmentation) {
-        // Model id per pixel (0 = background), 65535 = no model (no depth or unassigned).
-        cv::Mat labels(depth.rows, depth.cols, CV_16UC1, r.labels.data());
-        // Named by the frame's timestamp (6 decimals, as in the trajectories), which is how TUM
-        // folders and generated scenes name their images and masks: `eval seg` pairs them by name.
-        char name[64];
-        std::snprintf(name, sizeof name, "%.6f.png", frame->timestamp_s);
-        write_atomically(out_dir / "segmentation" / name, [&](const fs::path& tmp) {
-          if (!cv::imwrite(tmp.string() + ".png", labels)) throw Error("PNG encoding failed");
-          fs::rename(tmp.string() + ".png", tmp);
-        });
-      }
+      if (o.save_segmentation) write_label_image(out_dir / "segmentation", *frame, r.labels);
       unsigned surfels = 0;
       for (const auto& m : r.active) surfels += m.surfels;
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -450,45 +525,10 @@ int run(const RunOptions& o) {
       write_bytes_atomically(o.screenshot, std::as_bytes(std::span(png)));
     });
 
-  nlohmann::ordered_json summary;
-  summary["frames"] = frames;
-  // false when a signal or an error ended the run before its input did (stop_reason says which);
-  // the outputs then cover the frames processed.
-  summary["complete"] = stop_reason.empty();
-  if (!stop_reason.empty()) summary["stop_reason"] = stop_reason;
-  summary["fps"] = frames / seconds;
-  summary["device"] = ctx.description();
-  summary["input"] = source->describe();
-  summary["skipped_frames"] = nlohmann::json::array();
-  for (const auto& skipped : gate.skipped())
-    summary["skipped_frames"].push_back({{"frame", skipped.frame}, {"reason", skipped.reason}});
-  summary["dropped_frames"] = source->dropped_frames();
-  if (!output_errors.empty()) summary["output_errors"] = output_errors;
-  for (const auto& stage : times.stages()) summary["stages_ms"][stage] = times.mean(stage);
-  summary["tracking_failures"] = failed_frames;
-  summary["camera"] = {{"lost_frames", failed_frames.size()}, {"recoveries", recovered_frames.size()},
-                       {"recovered_at", recovered_frames}};
-  if (accuracy) summary["camera"]["ate_rmse_m"] = accuracy->ate_rmse_m;
-  summary["models"] = nlohmann::json::array();
-  for (size_t k = 0; k < snapshots.size(); ++k) {
-    const auto& m = snapshots[k];
-    summary["models"].push_back({{"id", m.id},
-                                 {"state", slam::to_string(m.state)},
-                                 {"surfels", k < all_models.size() ? all_models[k].surfels.size() : 0},
-                                 {"first_frame", m.first_frame},
-                                 {"last_frame", m.last_frame},
-                                 {"class", m.class_name}, {"class_confidence", m.class_confidence}});
-  }
-  summary["events"] = events;
-  summary["semantic"] = {{"segmentation", slam::to_string(params.semantic.mode)},
-                         {"source", semantic_source.empty() ? "none" : semantic_source},
-                         {"exclude", params.semantic.exclude},
-                         {"classes", params.semantic.classes}};
-  if (detector)
-    summary["semantic"]["detector"] = {{"detections", detector->detections_started()},
-                                       {"frames_with_masks", detector->results_used()},
-                                       {"mean_ms", detector->mean_detection_ms()}};
-  write_text_atomically(out_dir / "summary.json", summary.dump(2) + "\n");
+  SummaryInputs facts{frames, stop_reason, seconds, ctx.description(), source->describe(), gate.skipped(),
+                      source->dropped_frames(), output_errors, times, failed_frames, recovered_frames, accuracy,
+                      snapshots, all_models, events, params.semantic, semantic_source, detector.get()};
+  write_text_atomically(out_dir / "summary.json", summary_json(facts).dump(2) + "\n");
   std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures, %zu frames skipped; "
               "wrote %s%s\n",
               frames, seconds, frames / seconds, snapshots.size(), total_surfels, failed_frames.size(),
