@@ -128,6 +128,10 @@ struct CoFusion::Model {
   Eigen::Isometry3d T_prediction_live = Eigen::Isometry3d::Identity();
   bool settled = false;  // its residuals are this frame's (else it has no costs this frame)
   int pixels = 0;
+  // Surfels culled this frame for the capacity limit (fusion, merges); the first cull of a model
+  // is reported as a warning event, later ones are not.
+  unsigned culled = 0;
+  bool limit_reported = false;
   int rigidity_failures = 0;  // frames of its rigidity trial that counted against it
 
   // Its pose when it last covered a spawn-sized region and tracked (an object leaving the view is
@@ -456,9 +460,25 @@ void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, con
     surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(duplicate_slot),
                            params_.lifecycle.duplicate_margin_rel);
   if (m.tracking.failed) return;  // a guessed pose would corrupt the model
-  surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
-                params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
-                m.id == 0 ? std::nullopt : std::optional(fuse_rect));
+  const FusionStats stats =
+      surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
+                    params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
+                    m.id == 0 ? std::nullopt : std::optional(fuse_rect));
+  m.culled += stats.culled;
+}
+
+// The first time a model reaches its capacity limit: a warning event (the run goes on).
+void CoFusion::report_cull(Model& m, CoFusionFrame& out) {
+  if (m.culled == 0) return;
+  if (!m.limit_reported) {
+    const unsigned pixels = unsigned(intrinsics_.width) * unsigned(intrinsics_.height);
+    out.events.push_back("frame " + std::to_string(frame_) + ": warning: model " + std::to_string(m.id) +
+                         " reached its limit of " + std::to_string(m.surfels.limit(pixels, params_.slam.fusion.max_surfels)) +
+                         " surfels; culled its " + std::to_string(m.culled) +
+                         " least confident surfels and goes on (later culls are not reported)");
+    m.limit_reported = true;
+  }
+  m.culled = 0;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -615,6 +635,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   // Bookkeeping and the report.
   std::vector<uint16_t> slot_to_id(kSlots, 0xFFFF);
   for (auto& m : models_) {
+    report_cull(*m, out);
     if (m->state != ModelState::kActive) continue;
     slot_to_id[m->slot] = static_cast<uint16_t>(m->id);
     m->trajectory.emplace_back(frame_, m->surfels.T_world_model);
@@ -1080,6 +1101,13 @@ void CoFusion::merge_into(Model& keep, Model& gone, CoFusionFrame& out, const st
   transform_surfels(moved, keep.surfels.T_world_model.inverse() * gone.surfels.T_world_model);
   std::vector<Surfel> all = keep.surfels.download(keep.stream);
   all.insert(all.end(), moved.begin(), moved.end());
+  // Within keep's capacity limit (SurfelModel::make_room): the least confident go.
+  const unsigned pixels = unsigned(intrinsics_.width) * unsigned(intrinsics_.height);
+  const unsigned most = keep.surfels.limit(pixels, params_.slam.fusion.max_surfels);
+  if (all.size() > most) {
+    keep.culled += static_cast<unsigned>(all.size() - most);
+    keep_most_confident(all, most);
+  }
   keep.surfels.upload(keep.stream, all);
   keep.class_votes.merge(gone.class_votes);
   out.events.push_back("frame " + std::to_string(frame_) + ": merged model " + std::to_string(gone.id) + " into " +
