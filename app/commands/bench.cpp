@@ -1,6 +1,7 @@
 // `cofusion bench`: per-stage wall-clock timings on the chosen Vulkan device.
 #include <cstdio>
 
+#include "commands/bench_soak.h"
 #include "commands/commands.h"
 #include "commands/frame_upload.h"
 #include "commands/gpu_options.h"
@@ -35,6 +36,9 @@ struct BenchOptions {
   // masks and with the built-in detector (when its models are there).
   std::string semantic_input = "synthetic:table_placement";
   bool semantic = true;
+  // --soak N: only the soak run (bench_soak.h), N frames; its report also as JSON when soak_json is set.
+  SoakOptions soak{.frames = 0};
+  std::string soak_json;
 };
 
 // Per-kernel GPU time summed over frames (see gpu/kernel_profile.h).
@@ -308,10 +312,12 @@ void add_bench(CLI::App& app) {
   cmd->add_flag("!--no-semantic", options->semantic, "Skip the per-segmentation-mode figures");
   cmd->add_flag("--kernel-profile", options->kernel_profile,
                 "Also print GPU time per kernel for the pipeline and multi-object figures (timestamp queries)");
+  add_soak_options(*cmd, options->soak, options->soak_json);
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
     gpu::Context ctx(options->gpu.context_options());
     std::printf("device: %s\n", ctx.description().c_str());
+    if (options->soak.frames > 0) return bench_soak(ctx, options->soak, options->soak_json);
     if (options->kernels) {
       StageTimes times;
       bench_preprocessing(ctx, Intrinsics{}, *options, times);
