@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "commands/bench_soak.h"
 #include "commands/commands.h"
 #include "commands/frame_upload.h"
 #include "commands/gpu_options.h"
@@ -43,6 +44,9 @@ struct BenchOptions {
   std::string semantic_input = "synthetic:table_placement";
   bool semantic = true;
   std::string json_file;  // --json: every figure, machine-readable; empty = none
+  // --soak N: only the soak run (bench_soak.h), N frames; its report also as JSON when soak_json is set.
+  SoakOptions soak{.frames = 0};
+  std::string soak_json;
 };
 
 // Per-kernel GPU time summed over frames (see gpu/kernel_profile.h).
@@ -386,6 +390,7 @@ void add_bench(CLI::App& app) {
                 "Also print GPU time per kernel for the pipeline and multi-object figures (timestamp queries)");
   cmd->add_option("--json", options->json_file,
                   "Also write every figure (ms, fps, ratio to OpenCV's odometry) to this JSON file");
+  add_soak_options(*cmd, options->soak, options->soak_json);
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
     const std::filesystem::path json_file = options->json_file;
@@ -396,6 +401,7 @@ void add_bench(CLI::App& app) {
                  {"ratio", std::string("pipeline milliseconds / milliseconds per frame of OpenCV ") +
                                opencv_odometry_name() + " on the same frames, measured in this run (" +
                                std::to_string(cv::getNumThreads()) + " OpenCV threads)"}};
+    if (options->soak.frames > 0) return bench_soak(ctx, options->soak, options->soak_json);
     if (options->kernels) {
       StageTimes times;
       bench_preprocessing(ctx, Intrinsics{}, *options, times);

@@ -13,7 +13,7 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
     throw Error("buffer '" + name + "' of " + std::to_string(size_) + " bytes exceeds the device's largest allocation (" +
                 std::to_string(features.max_memory_allocation_size) + " bytes)");
   if (features.device_local_heap_bytes && size_ > features.device_local_heap_bytes)
-    throw Error("buffer '" + name + "' of " + std::to_string(size_) + " bytes exceeds device memory (" +
+    throw DeviceMemoryError("buffer '" + name + "' of " + std::to_string(size_) + " bytes exceeds device memory (" +
                 std::to_string(features.device_local_heap_bytes) + " bytes)");
 
   const bool bda = features.buffer_device_address && usage == BufferUsage::Device;
@@ -50,9 +50,19 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
                                   .memoryTypeIndex = type};
   try {
     memory_ = vk::raii::DeviceMemory(ctx.device(), allocate);
+  } catch (const vk::OutOfDeviceMemoryError& e) {
+    throw DeviceMemoryError("cannot allocate " + std::to_string(requirements.size) + " bytes for buffer '" + name +
+                            "': " + e.what());
+  } catch (const vk::OutOfHostMemoryError& e) {
+    throw DeviceMemoryError("cannot allocate " + std::to_string(requirements.size) + " bytes for buffer '" + name +
+                            "': " + e.what());
   } catch (const vk::SystemError& e) {
     throw Error("cannot allocate " + std::to_string(requirements.size) + " bytes for buffer '" + name + "': " + e.what());
   }
+  memory_counter_ = ctx.memory_counter();
+  memory_bytes_ = requirements.size;
+  memory_counter_->bytes += memory_bytes_;
+  ++memory_counter_->allocations;
   ctx.set_name(memory_, name + " memory");
   buffer_.bindMemory(*memory_, 0);
   if (map) mapped_ = memory_.mapMemory(0, VK_WHOLE_SIZE);
@@ -64,6 +74,12 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
                                                                               .range = vk_size});
     ctx.set_name(texel_view_, name + " texels");
   }
+}
+
+Buffer::~Buffer() {
+  if (!memory_counter_) return;
+  memory_counter_->bytes -= memory_bytes_;
+  --memory_counter_->allocations;
 }
 
 vk::BufferView Buffer::texel_view() const {

@@ -17,17 +17,26 @@ enum class BufferUsage {
   Staging,  // host-visible, host-coherent transfer source/destination
 };
 
+// Thrown when the device has no memory left for a buffer (allocation failed, or larger than its
+// memory heap): callers that can do with less (a surfel model that would grow) catch this one.
+class DeviceMemoryError : public Error {
+ public:
+  using Error::Error;
+};
+
 class Buffer;
 using BufferPtr = std::shared_ptr<Buffer>;
 
 class Buffer {
  public:
   // `size_bytes` is rounded up to a multiple of 4 (and at least 4: Vulkan has no empty buffers).
-  // Throws cofusion::Error naming the buffer when the device cannot hold it.
+  // Throws DeviceMemoryError naming the buffer when the device has no memory for it, and
+  // cofusion::Error when it can never hold it (larger than its largest allocation).
   static BufferPtr create(Context& ctx, size_t size_bytes, const std::string& name,
                           BufferUsage usage = BufferUsage::Device);
   Buffer(const Buffer&) = delete;
   Buffer& operator=(const Buffer&) = delete;
+  ~Buffer();
 
   size_t size() const { return size_; }
   const std::string& name() const { return name_; }
@@ -51,6 +60,9 @@ class Buffer {
   vk::raii::BufferView texel_view_{nullptr};
   void* mapped_ = nullptr;
   uint64_t address_ = 0;
+  // Counted in the context's DeviceMemoryCounter while this buffer lives.
+  std::shared_ptr<DeviceMemoryCounter> memory_counter_;
+  uint64_t memory_bytes_ = 0;
 };
 
 }  // namespace cofusion::gpu

@@ -66,6 +66,13 @@ struct DeviceFeatures {
   uint64_t max_texel_buffer_elements = 0;
 };
 
+// Device memory held by live gpu::Buffers (the VkDeviceMemory of each; the only device memory
+// the project allocates). Shared by the Context and its buffers. Thread-safe.
+struct DeviceMemoryCounter {
+  std::atomic<uint64_t> bytes{0};
+  std::atomic<uint64_t> allocations{0};
+};
+
 // One device queue. Submissions from several threads to the same queue are serialised by `mutex`.
 struct Queue {
   vk::Queue handle;
@@ -118,6 +125,11 @@ class Context {
   void set_kernel_profile(std::shared_ptr<KernelProfile> profile);
   KernelProfile* kernel_profile() const { return kernel_profile_.get(); }
 
+  // Bytes of device memory (and number of allocations) that the project's buffers hold now.
+  uint64_t allocated_device_bytes() const { return memory_->bytes.load(); }
+  uint64_t live_device_allocations() const { return memory_->allocations.load(); }
+  const std::shared_ptr<DeviceMemoryCounter>& memory_counter() const { return memory_; }
+
   // Number of validation messages of error severity seen so far.
   size_t validation_error_count() const { return validation_errors_.load(); }
 
@@ -141,6 +153,7 @@ class Context {
   std::vector<std::unique_ptr<Queue>> queues_;
   std::atomic<size_t> validation_errors_{0};
   std::shared_ptr<KernelProfile> kernel_profile_;
+  std::shared_ptr<DeviceMemoryCounter> memory_ = std::make_shared<DeviceMemoryCounter>();
 };
 
 }  // namespace cofusion::gpu

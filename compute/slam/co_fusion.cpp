@@ -363,9 +363,25 @@ void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, con
     surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(duplicate_slot),
                            params_.lifecycle.duplicate_margin_rel);
   if (m.tracking.failed) return;  // a guessed pose would corrupt the model
-  surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
-                params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
-                m.id == 0 ? std::nullopt : std::optional(fuse_rect));
+  const FusionStats stats =
+      surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
+                    params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
+                    m.id == 0 ? std::nullopt : std::optional(fuse_rect));
+  m.culled += stats.culled;
+}
+
+// The first time a model reaches its capacity limit: a warning event (the run goes on).
+void CoFusion::report_cull(Model& m, CoFusionFrame& out) {
+  if (m.culled == 0) return;
+  if (!m.limit_reported) {
+    const unsigned pixels = unsigned(intrinsics_.width) * unsigned(intrinsics_.height);
+    out.events.push_back("frame " + std::to_string(frame_) + ": warning: model " + std::to_string(m.id) +
+                         " reached its limit of " + std::to_string(m.surfels.limit(pixels, params_.slam.fusion.max_surfels)) +
+                         " surfels; culled its " + std::to_string(m.culled) +
+                         " least confident surfels and goes on (later culls are not reported)");
+    m.limit_reported = true;
+  }
+  m.culled = 0;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -555,6 +571,7 @@ void CoFusion::fuse_models(const std::vector<int>& spawned_slots) {
 // recent tracking quality that relocalisation is judged by.
 void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, const float* depth_m,
                             const uint8_t* rgb, CoFusionFrame& out) {
+  for (auto& m : models_) report_cull(*m, out);
   std::vector<uint16_t> slot_to_id(kSlots, 0xFFFF);
   for (Model* m : live_models()) {
     slot_to_id[m->slot] = static_cast<uint16_t>(m->id);

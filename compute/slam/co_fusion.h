@@ -393,6 +393,7 @@ class CoFusion {
                      const std::vector<int>& labelled, const std::vector<int>& explained,
                      std::vector<uint8_t>& slots, CoFusionFrame& out);
   void merge_into(Model& keep, Model& gone, CoFusionFrame& out, const std::string& why);
+  void report_cull(Model& m, CoFusionFrame& out);
   void retire(Model& m, CoFusionFrame& out);
   void upload_labels(const std::vector<uint8_t>& slots);
   int free_slot(uint32_t taken = 0) const;  // a slot no active model (nor `taken`, a bit mask) uses

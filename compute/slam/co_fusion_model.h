@@ -97,6 +97,10 @@ struct CoFusion::Model {
   Eigen::Isometry3d T_prediction_live = Eigen::Isometry3d::Identity();
   bool settled = false;  // its residuals are this frame's (else it has no costs this frame)
   int pixels = 0;
+  // Surfels culled this frame for the capacity limit (fusion, merges); the first cull of a model
+  // is reported as a warning event, later ones are not.
+  unsigned culled = 0;
+  bool limit_reported = false;
   int rigidity_failures = 0;  // frames of its rigidity trial that counted against it
 
   // Its pose when it last covered a spawn-sized region and tracked (an object leaving the view is

@@ -488,6 +488,13 @@ void CoFusion::merge_into(Model& keep, Model& gone, CoFusionFrame& out, const st
   transform_surfels(moved, keep.surfels.T_world_model.inverse() * gone.surfels.T_world_model);
   std::vector<Surfel> all = keep.surfels.download(keep.stream);
   all.insert(all.end(), moved.begin(), moved.end());
+  // Within keep's capacity limit (SurfelModel::make_room): the least confident go.
+  const unsigned pixels = unsigned(intrinsics_.width) * unsigned(intrinsics_.height);
+  const unsigned most = keep.surfels.limit(pixels, params_.slam.fusion.max_surfels);
+  if (all.size() > most) {
+    keep.culled += static_cast<unsigned>(all.size() - most);
+    keep_most_confident(all, most);
+  }
   keep.surfels.upload(keep.stream, all);
   keep.class_votes.merge(gone.class_votes);
   out.events.push_back("frame " + std::to_string(frame_) + ": merged model " + std::to_string(gone.id) + " into " +

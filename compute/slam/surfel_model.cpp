@@ -44,12 +44,65 @@ void SurfelModel::reserve(gpu::Stream& stream, unsigned needed) {
   unsigned capacity = capacity_;
   while (capacity < needed) capacity = static_cast<unsigned>(std::min<uint64_t>(uint64_t{capacity} * 2, max_capacity_));
   const std::string name = "model " + std::to_string(id_);
+  // Every new buffer first, so that a failed allocation leaves the model as it was.
   auto surfels = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(Surfel), name + " surfels");
+  auto scratch = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(Surfel), name + " surfels (compaction)");
+  auto claim = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(uint32_t), name + " claims");
   stream.run([&](gpu::CommandList& cmd) { cmd.copy(surfels_, surfels, size_t{count_} * sizeof(Surfel)); });
-  surfels_ = surfels;
-  scratch_ = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(Surfel), name + " surfels (compaction)");
-  claim_ = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(uint32_t), name + " claims");
+  surfels_ = std::move(surfels);
+  scratch_ = std::move(scratch);
+  claim_ = std::move(claim);
   capacity_ = capacity;
+}
+
+unsigned SurfelModel::limit(unsigned incoming, unsigned max_surfels) const {
+  const unsigned device = max_capacity_ > incoming ? max_capacity_ - incoming : 0;
+  return max_surfels > 0 ? std::min(max_surfels, device) : device;
+}
+
+namespace {
+unsigned cull_target(unsigned limit, const FusionParams& params) {
+  return static_cast<unsigned>(double(limit) * std::clamp(double(params.cull_keep_fraction), 0.0, 1.0));
+}
+}  // namespace
+
+unsigned SurfelModel::make_room(gpu::Stream& stream, unsigned incoming, const FusionParams& params) {
+  unsigned culled = 0;
+  // At most two rounds: after a failed growth max_capacity_ is the present capacity, and the cull
+  // leaves count_ + incoming within it, so reserve() allocates nothing.
+  for (;;) {
+    const unsigned most = limit(incoming, params.max_surfels);
+    if (count_ > most) culled += cull_least_confident(stream, cull_target(most, params));
+    try {
+      reserve(stream, count_ + incoming);
+      return culled;
+    } catch (const gpu::DeviceMemoryError&) {
+      if (max_capacity_ == capacity_) throw;
+      max_capacity_ = capacity_;  // the device cannot grow this model further
+    }
+  }
+}
+
+unsigned SurfelModel::cull_least_confident(gpu::Stream& stream, unsigned keep) {
+  if (count_ <= keep) return 0;
+  std::vector<Surfel> surfels = download(stream);
+  keep_most_confident(surfels, keep);
+  if (!surfels.empty()) stream.upload(surfels_, surfels.data(), surfels.size() * sizeof(Surfel));
+  const unsigned removed = count_ - keep;
+  count_ = keep;
+  culled_total_ += removed;
+  return removed;
+}
+
+void keep_most_confident(std::vector<Surfel>& surfels, size_t keep) {
+  if (surfels.size() <= keep) return;
+  auto more_worth_keeping = [](const Surfel& a, const Surfel& b) {
+    if (a.confidence != b.confidence) return a.confidence > b.confidence;
+    if (a.last_seen_frame != b.last_seen_frame) return a.last_seen_frame > b.last_seen_frame;
+    return a.created_frame > b.created_frame;
+  };
+  std::nth_element(surfels.begin(), surfels.begin() + std::ptrdiff_t(keep), surfels.end(), more_worth_keeping);
+  surfels.resize(keep);
 }
 
 void SurfelModel::ensure_fusion_scratch(size_t pixels, size_t index_map_cells) {
@@ -241,11 +294,12 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   const unsigned pixels = unsigned(k.width) * unsigned(k.height);
   const PixelRect area = rect ? rect->clamped(k.width, k.height) : PixelRect::full(k.width, k.height);
   FusionStats stats;
-  stats.surfels_before = model.count_;
   // Room for one new surfel per pixel of the rectangle, so the append in fuse_update can never
   // overflow; cleanup scans no further.
-  const unsigned most_surfels = model.count_ + unsigned(area.area());
-  model.reserve(stream, most_surfels);
+  const unsigned incoming = unsigned(area.area());
+  stats.culled = model.make_room(stream, incoming, params);
+  stats.surfels_before = model.count_;
+  const unsigned most_surfels = model.count_ + incoming;
   const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
   stream.upload(model.counter_, counter_init, sizeof counter_init);
   const int S = params.index_map_scale;
@@ -319,6 +373,8 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   stats.surfels_after_cleanup = counter[1];
   std::swap(model.surfels_, model.scratch_);
   model.count_ = counter[1];
+  const unsigned most = model.limit(incoming, params.max_surfels);
+  if (model.count_ > most) stats.culled += model.cull_least_confident(stream, cull_target(most, params));
   return stats;
 }
 

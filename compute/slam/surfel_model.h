@@ -33,8 +33,26 @@ class SurfelModel {
   unsigned max_capacity() const { return max_capacity_; }
 
   // Grows the buffers (doubling) so that `needed` surfels fit, keeping the content. Throws
-  // cofusion::Error naming the model when the device cannot hold that many.
+  // cofusion::Error naming the model when the device cannot hold that many, and
+  // gpu::DeviceMemoryError (the model unchanged) when it has no memory for the larger buffers.
   void reserve(gpu::Stream& stream, unsigned needed);
+
+  // Capacity limit. The most surfels this model may hold after a fusion that adds up to
+  // `incoming` new ones: `max_surfels` (FusionParams; 0 = no cap of its own) and what the device
+  // leaves room for (max_capacity() less incoming).
+  unsigned limit(unsigned incoming, unsigned max_surfels) const;
+  // Makes room for a fusion adding up to `incoming` surfels: grows the buffers where it can; when
+  // the model is over limit(), or the device has no memory to grow it (max_capacity() then drops
+  // to the present capacity for good), culls its least confident surfels down to
+  // params.cull_keep_fraction of the limit. Returns how many were culled.
+  unsigned make_room(gpu::Stream& stream, unsigned incoming, const FusionParams& params);
+  // Keeps the `keep` most confident surfels and drops the rest (keep_most_confident); returns how
+  // many went. Reads the model back and uploads what stays: host work, done only when a model
+  // reaches its limit.
+  unsigned cull_least_confident(gpu::Stream& stream, unsigned keep);
+  // Surfels culled over the model's life.
+  uint64_t culled_total() const { return culled_total_; }
+
   std::vector<Surfel> download(gpu::Stream& stream) const;
   void upload(gpu::Stream& stream, const std::vector<Surfel>& surfels);
 
@@ -51,6 +69,7 @@ class SurfelModel {
   unsigned count_ = 0;
   unsigned capacity_ = 0;
   unsigned max_capacity_ = 0;
+  uint64_t culled_total_ = 0;
   gpu::BufferPtr surfels_;  // Surfel[capacity]
   gpu::BufferPtr scratch_;  // compaction target, swapped with surfels_ after cleanup
   gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims
@@ -74,10 +93,17 @@ struct ModelPrediction {
   static ModelPrediction allocate(gpu::Context& ctx, const Intrinsics& intrinsics, int levels, const std::string& name);
 };
 
+// Orders `surfels` so that the `keep` most confident come first (ties: the most recently seen,
+// then the most recently created) and drops the rest; the order of those kept is not preserved.
+void keep_most_confident(std::vector<Surfel>& surfels, size_t keep);
+
 struct FusionStats {
-  unsigned surfels_before = 0;
+  unsigned surfels_before = 0;        // when fusion started (after a cull that made room)
   unsigned surfels_after_fusion = 0;  // including new ones
   unsigned surfels_after_cleanup = 0;
+  // Culled for the model's capacity limit (SurfelModel::make_room), before fusion and after
+  // cleanup; the model's count is then surfels_after_cleanup less the culls after it.
+  unsigned culled = 0;
 };
 
 class SurfelPipelines {
@@ -93,7 +119,9 @@ class SurfelPipelines {
                const std::optional<PixelRect>& rect = std::nullopt) const;
 
   // Fuses the live frame (level 0 of `live`) into `model` seen at T_camera_model, then removes
-  // unstable and free-space surfels. With `labels` (uint per pixel), only pixels whose label is
+  // unstable and free-space surfels. Keeps the model within its capacity limit
+  // (SurfelModel::make_room: least confident surfels culled before fusion when there is no room,
+  // and after cleanup when the count is over the limit). With `labels` (uint per pixel), only pixels whose label is
   // `label` are fused. With `rect` (level-0 pixels), only pixels in it are fused: with labels it
   // must hold every pixel labelled `label`, and then the result is the same, at the cost of the
   // rectangle instead of the image. Synchronous: returns when the model's new count is known.

@@ -45,6 +45,15 @@ struct FusionParams {
   float free_space_penalty = 1.0f;
   // Initial capacity of a model's surfel buffer; it doubles when full.
   unsigned initial_capacity = 1u << 19;
+  // Most surfels a model keeps after a fusion (0: no cap of its own). The device sets a limit too:
+  // a model's buffer holds at most SurfelModel::max_capacity() surfels (maxStorageBufferRange: 2M
+  // on lavapipe), and a fusion needs room for one new surfel per pixel beyond the model's count.
+  // A model that reaches its limit, or that the device cannot grow (out of memory), has its least
+  // confident surfels culled (SurfelModel::make_room) and the run goes on ...
+  unsigned max_surfels = 0;
+  // ... down to this fraction of the limit, so that culls (each a read-back and an upload of the
+  // model) come every few frames rather than every frame. In (0, 1].
+  float cull_keep_fraction = 0.9f;
 };
 
 }  // namespace cofusion::slam

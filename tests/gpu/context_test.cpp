@@ -215,6 +215,27 @@ TEST_F(ComputeCore, OutOfRangeTransfersAndHugeBuffersFailWithTheirNames) {
   }
 }
 
+// The context counts the device memory its buffers hold (`cofusion bench --soak` reports it).
+TEST_F(ComputeCore, CountsTheDeviceMemoryOfLiveBuffers) {
+  stream().wait_idle();
+  stream().begin();  // finished submissions release the buffers they held
+  const uint64_t bytes = ctx().allocated_device_bytes(), allocations = ctx().live_device_allocations();
+  {
+    auto a = gpu::Buffer::create(ctx(), 1 << 20, "counted 1 MiB");
+    auto b = gpu::Buffer::create(ctx(), 100, "counted 100 bytes", gpu::BufferUsage::Staging);
+    EXPECT_EQ(ctx().live_device_allocations(), allocations + 2);
+    EXPECT_GE(ctx().allocated_device_bytes(), bytes + (1 << 20) + 100);
+    EXPECT_LE(ctx().allocated_device_bytes(), bytes + (1 << 20) + 100 + 2 * 65536) << "at most alignment on top";
+  }
+  EXPECT_EQ(ctx().allocated_device_bytes(), bytes);
+  EXPECT_EQ(ctx().live_device_allocations(), allocations);
+  try {
+    gpu::Buffer::create(ctx(), size_t{1} << 50, "enormous model");
+  } catch (const Error&) {
+  }
+  EXPECT_EQ(ctx().allocated_device_bytes(), bytes) << "a buffer that failed holds nothing";
+}
+
 TEST_F(ComputeCore, BuffersHaveDeviceAddressesWhereSupported) {
   auto b = gpu::Buffer::create(ctx(), 256, "addressed");
   if (!ctx().features().buffer_device_address) GTEST_SKIP() << "device has no buffer device address";
