@@ -37,7 +37,7 @@ if [ ${#missing[@]} -gt 0 ]; then
   root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
   mkdir -p "$root/build"
   log="$root/build/install-deps.log"
-  echo -n "install-deps: installing ${#missing[@]} packages (apt's log: build/install-deps.log) ... "
+  echo -n "install-deps: installing ${missing[*]} (apt's log: build/install-deps.log) ... "
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   export DEBIAN_FRONTEND=noninteractive
