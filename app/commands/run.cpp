@@ -247,6 +247,47 @@ std::string choose_semantic_source(const Frame& first, bool motion_segmentation)
   return source;
 }
 
+// The instance masks each frame gets: the input's (`masks`), the built-in detector's (`detector`)
+// or none; with no --semantic-source, chosen at the first frame (choose_semantic_source).
+class FrameMasks {
+ public:
+  FrameMasks(std::string source, bool motion_segmentation, const Intrinsics& intrinsics, bool wait_for_detections,
+             int detector_every)
+      : source_(std::move(source)), motion_segmentation_(motion_segmentation), intrinsics_(intrinsics),
+        wait_for_detections_(wait_for_detections), detector_every_(detector_every) {}
+
+  // This frame's masks (null: none). The detector gives the detection made from the previous frame,
+  // then starts one of this frame (when none is running); on a recording the next frame waits for
+  // it, a live camera never does.
+  const slam::SemanticFrame* for_frame(const Frame& frame, const cv::Mat& rgb, const cv::Mat& depth) {
+    if (source_.empty()) source_ = choose_semantic_source(frame, motion_segmentation_);
+    if (source_ == "masks") {
+      if (frame.mask.empty())
+        throw Error("frame " + std::to_string(frame.index) + " has no instance mask (--semantic-source masks)");
+      masks_ = semantic_frame_from_masks(frame);
+      return masks_ ? &*masks_ : nullptr;
+    }
+    if (source_ != "detector") return nullptr;
+    if (!detector_)
+      detector_ = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics_, wait_for_detections_, detector_every_);
+    const slam::SemanticFrame* previous = detector_->for_frame(frame.index);
+    detector_->submit(frame.index, rgb, depth);
+    return previous;
+  }
+
+  const std::string& source() const { return source_; }
+  const AsyncDetector* detector() const { return detector_.get(); }
+
+ private:
+  std::string source_;
+  const bool motion_segmentation_;
+  const Intrinsics intrinsics_;
+  const bool wait_for_detections_;
+  const int detector_every_;
+  std::unique_ptr<AsyncDetector> detector_;
+  std::optional<slam::SemanticFrame> masks_;
+};
+
 // segmentation/<timestamp>.png: the model id per pixel (0 = background, 65535 = no model: no depth
 // or unassigned), named by the frame's timestamp (6 decimals, as in the trajectories), which is
 // how TUM folders and generated scenes name their images and masks: `eval seg` pairs them by name.
@@ -299,10 +340,8 @@ int run(const RunOptions& o) {
 
   slam::CoFusion slam(ctx, intrinsics, params);
   // Where the instance masks come from, decided at the first frame (whether the input has masks).
-  std::string semantic_source = o.semantic_source;
-  std::unique_ptr<AsyncDetector> detector;
   const bool live_input = o.input.rfind("openni2", 0) == 0;  // a camera: the detector never holds it up
-  std::optional<slam::SemanticFrame> frame_masks;
+  FrameMasks masks(o.semantic_source, config.motion_segmentation, intrinsics, !live_input, o.detector_every);
   StageTimes times;
   Trajectory camera;
   std::vector<double> timestamps;  // per processed frame, for the model trajectories
@@ -397,22 +436,7 @@ int run(const RunOptions& o) {
       skipped_before = gate.skipped().size();
       const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
       const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
-      if (semantic_source.empty()) semantic_source = choose_semantic_source(*frame, config.motion_segmentation);
-      if (semantic_source == "masks" && frame->mask.empty())
-        throw Error("frame " + std::to_string(frame->index) + " has no instance mask (--semantic-source masks)");
-      if (semantic_source == "detector" && !detector)
-        detector = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics, !live_input, o.detector_every);
-      const slam::SemanticFrame* semantic = nullptr;
-      if (semantic_source == "masks") {
-        frame_masks = semantic_frame_from_masks(*frame);
-        semantic = frame_masks ? &*frame_masks : nullptr;
-      } else if (detector) {
-        // The detection made from the previous frame, then a detection of this frame starts (when
-        // none is running); on a recording the next frame waits for it, a live camera never does.
-        semantic = detector->for_frame(frame->index);
-        detector->submit(frame->index, rgb, depth);
-      }
-      slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data, semantic);
+      slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data, masks.for_frame(*frame, rgb, depth));
       for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
       if (r.frame > 0 && config.motion_segmentation) {
         times.add("superpixels (CPU)", r.superpixels_ms);
@@ -527,7 +551,7 @@ int run(const RunOptions& o) {
 
   SummaryInputs facts{frames, stop_reason, seconds, ctx.description(), source->describe(), gate.skipped(),
                       source->dropped_frames(), output_errors, times, failed_frames, recovered_frames, accuracy,
-                      snapshots, all_models, events, params.semantic, semantic_source, detector.get()};
+                      snapshots, all_models, events, params.semantic, masks.source(), masks.detector()};
   write_text_atomically(out_dir / "summary.json", summary_json(facts).dump(2) + "\n");
   std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures, %zu frames skipped; "
               "wrote %s%s\n",
