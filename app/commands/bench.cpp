@@ -241,23 +241,12 @@ Json bench_semantic_mode(gpu::Context& ctx, const std::vector<Frame>& frames, co
   slam::CoFusionParams params = PipelineConfig{}.cofusion();
   params.semantic.mode = mode;
   slam::CoFusion slam(ctx, frames[0].intrinsics, params);
-  std::unique_ptr<AsyncDetector> detector;
-  if (masks == "detector")
-    detector = std::make_unique<AsyncDetector>(default_models_dir(), frames[0].intrinsics, true, detector_every);
+  FrameMasks frame_masks(masks, true, frames[0].intrinsics, /*wait_for_detections=*/true, detector_every);
   StageTimes times;
   for (size_t i = 0; i < frames.size(); ++i) {
     const Frame& f = frames[i];
     const auto start = std::chrono::steady_clock::now();
-    std::optional<slam::SemanticFrame> own;
-    const slam::SemanticFrame* semantic = nullptr;
-    if (masks == "masks") {
-      own = semantic_frame_from_masks(f);
-      semantic = own ? &*own : nullptr;
-    } else if (detector) {
-      semantic = detector->for_frame(f.index);
-      detector->submit(f.index, f.rgb, f.depth_m);
-    }
-    slam.process(f.depth_m.ptr<float>(), f.rgb.data, semantic);
+    slam.process(f.depth_m.ptr<float>(), f.rgb.data, frame_masks.for_frame(f, f.rgb, f.depth_m));
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (i >= 2) times.add("whole frame", ms);  // start-up: pipeline compilation, first fusion
   }
@@ -270,7 +259,7 @@ Json bench_semantic_mode(gpu::Context& ctx, const std::vector<Frame>& frames, co
   Json json = {{"segmentation", slam::to_string(mode)}, {"masks", masks}, {"detector_every", detector_every},
                {"frames", times.samples("whole frame").size()}, {"mean_ms", mean_ms}, {"median_ms", median_ms},
                {"fps_mean_frame", 1000.0 / mean_ms}, {"ratio", peer_ratio(mean_ms, peer)}};
-  if (detector) {
+  if (const AsyncDetector* detector = frame_masks.detector()) {
     std::printf("; detector %.0f ms per run, ran on %d of %zu frames", detector->mean_detection_ms(),
                 detector->detections_started(), frames.size());
     json["detector"] = {{"ms_per_run", detector->mean_detection_ms()}, {"runs", detector->detections_started()}};

@@ -225,68 +225,6 @@ slam::CoFusionParams pipeline_params(const RunOptions& o, const PipelineConfig& 
   return params;
 }
 
-// Where the instance masks come from when --semantic-source does not say, decided at the first
-// frame: the input's masks, else the detector when its models are there, else none.
-std::string choose_semantic_source(const Frame& first, bool motion_segmentation) {
-  std::string source;
-  if (!first.mask.empty()) {
-    source = "masks";
-  } else if (std::error_code ec; fs::is_regular_file(default_models_dir() / "centernet.pb", ec)) {
-    source = "detector";
-  } else {
-    std::printf("no instance masks: the input has none and the detector's models are not in %s (run "
-                ".ci/fetch-models.sh or set COFUSION_MODELS); no class is excluded\n",
-                default_models_dir().c_str());
-    return "none";
-  }
-  if (!motion_segmentation) {
-    std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
-    return "none";
-  }
-  std::printf("instance masks: %s\n", source.c_str());
-  return source;
-}
-
-// The instance masks each frame gets: the input's (`masks`), the built-in detector's (`detector`)
-// or none; with no --semantic-source, chosen at the first frame (choose_semantic_source).
-class FrameMasks {
- public:
-  FrameMasks(std::string source, bool motion_segmentation, const Intrinsics& intrinsics, bool wait_for_detections,
-             int detector_every)
-      : source_(std::move(source)), motion_segmentation_(motion_segmentation), intrinsics_(intrinsics),
-        wait_for_detections_(wait_for_detections), detector_every_(detector_every) {}
-
-  // This frame's masks (null: none). The detector gives the detection made from the previous frame,
-  // then starts one of this frame (when none is running); on a recording the next frame waits for
-  // it, a live camera never does.
-  const slam::SemanticFrame* for_frame(const Frame& frame, const cv::Mat& rgb, const cv::Mat& depth) {
-    if (source_.empty()) source_ = choose_semantic_source(frame, motion_segmentation_);
-    if (source_ == "masks") {
-      if (frame.mask.empty())
-        throw Error("frame " + std::to_string(frame.index) + " has no instance mask (--semantic-source masks)");
-      masks_ = semantic_frame_from_masks(frame);
-      return masks_ ? &*masks_ : nullptr;
-    }
-    if (source_ != "detector") return nullptr;
-    if (!detector_)
-      detector_ = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics_, wait_for_detections_, detector_every_);
-    const slam::SemanticFrame* previous = detector_->for_frame(frame.index);
-    detector_->submit(frame.index, rgb, depth);
-    return previous;
-  }
-
-  const std::string& source() const { return source_; }
-  const AsyncDetector* detector() const { return detector_.get(); }
-
- private:
-  std::string source_;
-  const bool motion_segmentation_;
-  const Intrinsics intrinsics_;
-  const bool wait_for_detections_;
-  const int detector_every_;
-  std::unique_ptr<AsyncDetector> detector_;
-  std::optional<slam::SemanticFrame> masks_;
-};
 
 // segmentation/<timestamp>.png: the model id per pixel (0 = background, 65535 = no model: no depth
 // or unassigned), named by the frame's timestamp (6 decimals, as in the trajectories), which is

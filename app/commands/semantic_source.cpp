@@ -78,4 +78,45 @@ const slam::SemanticFrame* AsyncDetector::for_frame(int frame_index) {
   return &current_;
 }
 
+std::string choose_semantic_source(const Frame& first, bool motion_segmentation) {
+  std::string source;
+  if (!first.mask.empty()) {
+    source = "masks";
+  } else if (std::error_code ec; std::filesystem::is_regular_file(default_models_dir() / "centernet.pb", ec)) {
+    source = "detector";
+  } else {
+    std::printf("no instance masks: the input has none and the detector's models are not in %s (run "
+                ".ci/fetch-models.sh or set COFUSION_MODELS); no class is excluded\n",
+                default_models_dir().c_str());
+    return "none";
+  }
+  if (!motion_segmentation) {
+    std::printf("instance masks are not used: they need motion segmentation (off in the configuration)\n");
+    return "none";
+  }
+  std::printf("instance masks: %s\n", source.c_str());
+  return source;
+}
+
+FrameMasks::FrameMasks(std::string source, bool motion_segmentation, const Intrinsics& intrinsics,
+                       bool wait_for_detections, int detector_every)
+    : source_(std::move(source)), motion_segmentation_(motion_segmentation), intrinsics_(intrinsics),
+      wait_for_detections_(wait_for_detections), detector_every_(detector_every) {}
+
+const slam::SemanticFrame* FrameMasks::for_frame(const Frame& frame, const cv::Mat& rgb, const cv::Mat& depth_m) {
+  if (source_.empty()) source_ = choose_semantic_source(frame, motion_segmentation_);
+  if (source_ == "masks") {
+    if (frame.mask.empty())
+      throw Error("frame " + std::to_string(frame.index) + " has no instance mask (--semantic-source masks)");
+    masks_ = semantic_frame_from_masks(frame);
+    return masks_ ? &*masks_ : nullptr;
+  }
+  if (source_ != "detector") return nullptr;
+  if (!detector_)
+    detector_ = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics_, wait_for_detections_, detector_every_);
+  const slam::SemanticFrame* previous = detector_->for_frame(frame.index);
+  detector_->submit(frame.index, rgb, depth_m);
+  return previous;
+}
+
 }  // namespace cofusion::commands

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include <tbb/task_group.h>
 
@@ -71,6 +72,38 @@ class AsyncDetector {
   // The result handed out (a copy: the task may overwrite result_ meanwhile).
   slam::SemanticFrame current_;
   int current_frame_ = -1;
+};
+
+// Where the instance masks come from when --semantic-source does not say, decided at the first
+// frame: the input's masks, else the detector when its models are there, else none (each choice
+// printed, with why there are none).
+std::string choose_semantic_source(const Frame& first, bool motion_segmentation);
+
+// The instance masks each frame gets: the input's (`masks`), the built-in detector's (`detector`)
+// or none; with an empty source, chosen at the first frame (choose_semantic_source). Used by
+// `cofusion run` and `cofusion bench`.
+class FrameMasks {
+ public:
+  FrameMasks(std::string source, bool motion_segmentation, const Intrinsics& intrinsics, bool wait_for_detections,
+             int detector_every);
+
+  // This frame's masks (null: none). The detector gives the detection made from the previous frame,
+  // then starts one of this frame (when none is running); with wait_for_detections (recordings)
+  // the next frame waits for it, a live camera never does. Throws cofusion::Error for a frame
+  // without masks when the source is `masks`.
+  const slam::SemanticFrame* for_frame(const Frame& frame, const cv::Mat& rgb, const cv::Mat& depth_m);
+
+  const std::string& source() const { return source_; }
+  const AsyncDetector* detector() const { return detector_.get(); }
+
+ private:
+  std::string source_;
+  const bool motion_segmentation_;
+  const Intrinsics intrinsics_;
+  const bool wait_for_detections_;
+  const int detector_every_;
+  std::unique_ptr<AsyncDetector> detector_;
+  std::optional<slam::SemanticFrame> masks_;
 };
 
 }  // namespace cofusion::commands
