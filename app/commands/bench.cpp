@@ -44,9 +44,8 @@ struct BenchOptions {
   std::string semantic_input = "synthetic:table_placement";
   bool semantic = true;
   std::string json_file;  // --json: every figure, machine-readable; empty = none
-  // --soak N: only the soak run (bench_soak.h), N frames; its report also as JSON when soak_json is set.
+  // --soak N: only the soak run (bench_soak.h), N frames; its report goes to json_file when set.
   SoakOptions soak{.frames = 0};
-  std::string soak_json;
 };
 
 // Per-kernel GPU time summed over frames (see gpu/kernel_profile.h).
@@ -378,8 +377,8 @@ void add_bench(CLI::App& app) {
   cmd->add_flag("--kernel-profile", options->kernel_profile,
                 "Also print GPU time per kernel for the pipeline and multi-object figures (timestamp queries)");
   cmd->add_option("--json", options->json_file,
-                  "Also write every figure (ms, fps, ratio to OpenCV's odometry) to this JSON file");
-  add_soak_options(*cmd, options->soak, options->soak_json);
+                  "Also write every figure (ms, fps, ratio to OpenCV's odometry; with --soak, the soak report) to this JSON file");
+  add_soak_options(*cmd, options->soak);
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
     const std::filesystem::path json_file = options->json_file;
@@ -390,7 +389,7 @@ void add_bench(CLI::App& app) {
                  {"ratio", std::string("pipeline milliseconds / milliseconds per frame of OpenCV ") +
                                opencv_odometry_name() + " on the same frames, measured in this run (" +
                                std::to_string(cv::getNumThreads()) + " OpenCV threads)"}};
-    if (options->soak.frames > 0) return bench_soak(ctx, options->soak, options->soak_json);
+    if (options->soak.frames > 0) return bench_soak(ctx, options->soak, options->json_file);
     if (options->kernels) {
       StageTimes times;
       bench_preprocessing(ctx, Intrinsics{}, *options, times);

@@ -223,7 +223,7 @@ nlohmann::ordered_json to_json(const SoakReport& r) {
   return j;
 }
 
-void add_soak_options(CLI::App& bench, SoakOptions& o, std::string& json_path) {
+void add_soak_options(CLI::App& bench, SoakOptions& o) {
   o.params = PipelineConfig{}.cofusion();
   bench
       .add_option("--soak", o.frames,
@@ -238,7 +238,6 @@ void add_soak_options(CLI::App& bench, SoakOptions& o, std::string& json_path) {
   bench.add_option("--soak-every", o.report_every_frames, "Soak window length in frames")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  bench.add_option("--soak-json", json_path, "Also write the soak figures to this JSON file");
 }
 
 void bench_soak(gpu::Context& ctx, const SoakOptions& o, const std::string& json_path) {

@@ -83,9 +83,9 @@ SoakReport run_soak(gpu::Context& ctx, const SoakOptions& options);
 
 nlohmann::ordered_json to_json(const SoakReport& report);
 
-// `bench`'s soak options: --soak N, --soak-input, --soak-every, --soak-json FILE. Sets the
-// pipeline's parameters to `run`'s defaults.
-void add_soak_options(CLI::App& bench, SoakOptions& options, std::string& json_path);
+// `bench`'s soak options: --soak N, --soak-input, --soak-every, ... (the report goes to bench's
+// --json FILE when given). Sets the pipeline's parameters to `run`'s defaults.
+void add_soak_options(CLI::App& bench, SoakOptions& options);
 // The soak on `ctx`, its report written to json_path (when not empty); throws on validation errors.
 void bench_soak(gpu::Context& ctx, const SoakOptions& options, const std::string& json_path);
 

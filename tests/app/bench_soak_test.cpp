@@ -114,7 +114,7 @@ TEST(BenchSoakCommand, PrintsAWindowLineEveryKFramesAndTheVerdictAndWritesJson) 
   const fs::path json = fresh_temp_dir("soak-json") / "soak.json";
   int code = -1;
   const std::string out = run_cofusion(
-      "bench --soak 30 --soak-every 10 --soak-source-frames 6 --soak-half-resolution --soak-json " + json.string(), code);
+      "bench --soak 30 --soak-every 10 --soak-source-frames 6 --soak-half-resolution --json " + json.string(), code);
   ASSERT_EQ(code, 0) << out;
   EXPECT_THAT(out, HasSubstr("soak: 30 frames of synthetic:static_room")) << out;
   EXPECT_THAT(out, HasSubstr("(320x240, 6 frames played back and forth), a window every 10 frames")) << out;
