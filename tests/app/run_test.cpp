@@ -226,7 +226,8 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 // the room for 120 frames; their masks exclude them) ends with the background model alone, the
 // camera within 1 cm, and no person surfel left in the background: the background's surfels lie
 // on the room's geometry (generated, geometry/background.glb) but for noise. Measured: 0.10 % of
-// them more than 5 cm from it (0.31 % in a motion-only run), 0.02 % more than 10 cm.
+// them more than 5 cm from it (0.31 % in a motion-only run, --semantic-source none), 0.02 % more
+// than 10 cm (that bound does not tell the two runs apart; the 5 cm one does).
 TEST(RunCommand, WalkingPeopleLeaveNoGhostsInTheBackgroundSlow) {
   const fs::path gt = fresh_temp_dir() / "walking_people", out = fresh_temp_dir();
   const Result g = run_cofusion("generate walking_people --output " + gt.string());
@@ -242,7 +243,11 @@ TEST(RunCommand, WalkingPeopleLeaveNoGhostsInTheBackgroundSlow) {
   const auto recon = eval::evaluate_reconstruction_files(out / "models" / "model-0.ply", gt / "geometry" / "background.glb",
                                                          camera_gt.front().T_world_x, params);
   RecordProperty("share_over_5cm", std::to_string(recon.errors.share_above[0]));
-  EXPECT_LE(recon.errors.share_above[0], 0.005);
+  std::printf("  background surfels over 5 cm from the room: %.4f %%, over 10 cm: %.4f %%\n",
+              100 * recon.errors.share_above[0], 100 * recon.errors.share_above[1]);
+  // Between the measured 0.10 % and the 0.31 % a motion-only run leaves: ghosts of the people
+  // would fail it.
+  EXPECT_LE(recon.errors.share_above[0], 0.002);
   EXPECT_LE(recon.errors.share_above[1], 0.001);
 }
 
