@@ -12,6 +12,7 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "shared/host_device.h"
+#include "shared/depth_noise.h"
 #include "shared/texel_access.glsl"
 layout(local_size_x = ICP_RGB_GROUP_SIZE) in;
 layout(binding = ICP_RGB_BINDING_LIVE_VERTEX) uniform usamplerBuffer live_vertex;  // texel view of vec4
@@ -103,7 +104,8 @@ void main() {
       const vec3 d = q - v_ref.xyz;
       if (n_ref.w > 0.0 && dot(d, d) <= max_d2 && dot(R * n_live.xyz, n_ref.xyz) >= p.min_normal_cos) {
         const float r = dot(n_ref.xyz, d);
-        const float sw = huber_sqrt_weight(r, p.icp_huber_delta_m);
+        const float sw = huber_sqrt_weight(r, p.icp_huber_delta_m) *
+                         depth_noise_scale(v_live.z, p.icp_noise_reference_depth_m);
         accumulate(icp, sw * n_ref.xyz, sw * cross(q, n_ref.xyz), sw * r);
       }
     }

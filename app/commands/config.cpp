@@ -100,6 +100,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("max_intensity_diff", c.max_intensity_diff)
       .field("photometric_huber_k", c.photometric_huber_k)
       .field("icp_huber_k", c.icp_huber_k)
+      .field("icp_noise_reference_depth_m", c.icp_noise_reference_depth_m)
       .field("min_correspondences", c.min_correspondences)
       .field("min_coarse_level_correspondences", c.min_coarse_level_correspondences)
       .field("min_inlier_ratio", c.min_inlier_ratio)

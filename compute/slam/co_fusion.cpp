@@ -14,6 +14,7 @@
 
 #include "common/se3.h"
 #include "common/window_count.h"
+#include "shared/depth_noise.h"
 
 namespace cofusion::slam {
 using namespace internal;  // the label slots (co_fusion_model.h)
@@ -315,9 +316,7 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   if (!m.settled) return;  // not tracked this frame (the camera was relocalised): no evidence
   const MotionCostParams& p = params_.costs;
   const bool background = m.id == 0;
-  const auto sigma = [](float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); };
   const float z_ref = p.noise_reference_depth_m;
-  const float sigma_ref = sigma(z_ref);
   // Photometric residuals in units of this frame's photometric noise (the background's RMS
   // residual after tracking): motion blur and exposure changes raise every pixel's residual. An
   // object's own RMS counts where it is larger: a turning object's faces change their shading
@@ -350,7 +349,7 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
           costs[i] = p.revealed_cost_m;
         } else {
           const float z = depth_m[i];
-          const float scale = z_ref > 0.0f && z > z_ref ? sigma_ref / sigma(z) : 1.0f;
+          const float scale = gpu_layout::depth_noise_scale(z, z_ref);
           costs[i] = std::min(v[0] * scale + photometric_m * v[2], p.max_cost_m);
         }
       }

@@ -105,6 +105,7 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
   p.rgb_huber_delta = static_cast<float>(huber.rgb);
   p.icp_huber_delta_m = static_cast<float>(huber.icp_m);
+  p.icp_noise_reference_depth_m = static_cast<float>(params_.icp_noise_reference_depth_m);
   p.use_photometric = params_.use_photometric ? 1u : 0u;
   p.esm_gradient = params_.esm_gradient ? 1u : 0u;
   p.outline_photometric = params_.outline_photometric ? 1u : 0u;

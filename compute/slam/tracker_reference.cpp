@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "common/error.h"
+#include "shared/depth_noise.h"
 
 namespace cofusion::slam::reference {
 namespace {
@@ -118,7 +119,9 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         if (n_ref4.w > 0 && d.norm() <= max_d && (R * xyz(n_live)).dot(n_ref) >= min_cos) {
           Vector6d J;
           J << n_ref, q.cross(n_ref);
-          const double r = n_ref.dot(d), sw = huber_sqrt_weight(r, huber.icp_m);
+          const double r = n_ref.dot(d);
+          const double sw = huber_sqrt_weight(r, huber.icp_m) *
+                            gpu_layout::depth_noise_scale(v_live.z, float(params.icp_noise_reference_depth_m));
           add(sums.icp, sw * J, sw * r);
         }
       }

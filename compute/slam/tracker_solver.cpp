@@ -54,6 +54,8 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.max_intensity_diff > 0)) bad("max_intensity_diff must be > 0");
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
   if (!(p.icp_huber_k >= 0)) bad("icp_huber_k must be >= 0");
+  if (!(p.icp_noise_reference_depth_m >= 0 && std::isfinite(p.icp_noise_reference_depth_m)))
+    bad("icp_noise_reference_depth_m must be >= 0");
   if (!(p.outline_occlusion_margin_m >= 0 && std::isfinite(p.outline_occlusion_margin_m)))
     bad("outline_occlusion_margin_m must be >= 0");
   if (p.min_correspondences < 0) bad("min_correspondences must be >= 0");

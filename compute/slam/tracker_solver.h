@@ -76,6 +76,12 @@ struct TrackerParams {
   // of something that moves a little (a person close to the camera), inside the correspondence
   // distance, then pull the pose less than the static scene does.
   double icp_huber_k = 0;
+  // Depth-noise weighting of the ICP term: the residual (and Jacobian) of a live point deeper than
+  // this is scaled by sigma(this depth) / sigma(its depth), sigma the sensor's axial noise
+  // (shared/depth_noise.h: 2 mm at 1 m, 14 mm at 3 m), so every pair counts by how much its depth
+  // can be trusted; nearer points keep weight 1. Far, noisy depth otherwise outweighs the
+  // photometric term and the near geometry (an office seen from 2-5 m). 0 = no weighting.
+  double icp_noise_reference_depth_m = 0;
 
   // Failure rules. On failure the result pose is the guess.
   // Fewest ICP correspondences at full resolution; coarser levels need this times their share of

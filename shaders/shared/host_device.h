@@ -321,6 +321,9 @@ struct IcpRgbReduceParams {
   // ICP: point-to-plane residuals beyond this (metres) get Huber weight delta / |r|, like the
   // photometric ones; 0 = none.
   float icp_huber_delta_m;
+  // ICP: a live point deeper than this (metres) has its residual and Jacobian scaled by
+  // sigma(reference) / sigma(depth) (shared/depth_noise.h); 0 = no scaling.
+  float icp_noise_reference_depth_m;
 };
 
 

@@ -20,6 +20,7 @@
 #include "io/trajectory.h"
 #include "io/trajectory_lookup.h"
 #include "kernels/preprocess.h"
+#include "shared/depth_noise.h"
 #include "slam/tracker.h"
 #include "slam/tracker_reference.h"
 #include "support/gpu_fixture.h"
@@ -257,6 +258,24 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // Depth-noise weighting of the ICP term (TrackerParams::icp_noise_reference_depth_m): the same
+    // pairs, the far ones scaled down, GPU and CPU alike; the photometric term untouched.
+    {
+      slam::TrackerParams weighted = params;
+      weighted.icp_noise_reference_depth_m = 0.8;
+      tracker_->set_params(weighted);
+      const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
+      tracker_->set_params(params);
+      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, weighted);
+      expect_sums_near(g.icp, c.icp, 2e-3, what + " noise-weighted icp");
+      EXPECT_EQ(c.icp[28], cpu.icp[28]) << what;
+      EXPECT_EQ(c.rgb, cpu.rgb) << what;
+      if (s.w >= 160) {
+        EXPECT_LT(c.icp[27], 0.9 * cpu.icp[27]) << what << ": no residual was scaled down";
+        EXPECT_LT(c.icp[0], 0.9 * cpu.icp[0]) << what << ": no Jacobian was scaled down";
+      }
+    }
+
     // With the outline term (model -> live): the ICP term as before, more photometric residuals.
     {
       slam::TrackerParams outline = params;
@@ -405,6 +424,21 @@ slam::TrackerParams icp_only_params() {
 }
 
 const Isometry3d kSolverGuess = se3_exp((Vector6d() << 0.01, 0.02, 0.0, 0.0, 0.01, 0.0).finished());
+
+// The sensor noise model behind the ICP weighting and the segmentation's costs (Nguyen et al.
+// 2012): about 1.9 mm at 1 m, 14 mm at 3 m; the scale is 1 up to the reference depth and then
+// sigma(reference) / sigma(depth).
+TEST(DepthNoise, SigmaGrowsWithTheSquareOfDepthAndTheScaleIsOneUpToTheReference) {
+  using gpu_layout::depth_noise_scale;
+  using gpu_layout::depth_noise_sigma_m;
+  EXPECT_NEAR(depth_noise_sigma_m(1.0f), 0.001884f, 1e-6f);
+  EXPECT_NEAR(depth_noise_sigma_m(3.0f), 0.014044f, 1e-6f);
+  EXPECT_EQ(depth_noise_scale(0.5f, 1.0f), 1.0f);
+  EXPECT_EQ(depth_noise_scale(1.0f, 1.0f), 1.0f);
+  EXPECT_NEAR(depth_noise_scale(3.0f, 1.0f), 0.001884f / 0.014044f, 1e-4f);
+  EXPECT_LT(depth_noise_scale(4.0f, 1.0f), depth_noise_scale(3.0f, 1.0f));
+  EXPECT_EQ(depth_noise_scale(3.0f, 0.0f), 1.0f);  // off
+}
 
 TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
   const auto term = [](double diagonal, double b, double count) {
