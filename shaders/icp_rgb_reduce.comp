@@ -110,9 +110,10 @@ void main() {
       }
     }
 
-    // Photometric (eq. 3): r = I_ref(pi(q)) - I_live(u), bilinear in the reference, where the
-    // four reference samples are valid and the nearest one is not occluding q.
-    if (p.use_photometric != 0u && x >= 0.0 && y >= 0.0 && x < float(w - 1) && y < float(h - 1) &&
+    // Photometric (eq. 3): r = I_ref(pi(q)) - g I_live(u), bilinear in the reference, where the
+    // four reference samples are valid and the nearest one is not occluding q; g is the live
+    // frame's exposure gain (TrackerParams::exposure_compensation).
+    if ((p.flags & ICP_RGB_FLAG_PHOTOMETRIC) != 0u && x >= 0.0 && y >= 0.0 && x < float(w - 1) && y < float(h - 1) &&
         abs(q.z - v_ref.z) <= p.max_distance_m) {
       const int x0 = int(floor(x)), y0 = int(floor(y));
       const uint j00 = uint(y0 * w + x0), j10 = j00 + 1u, j01 = j00 + p.width, j11 = j01 + 1u;
@@ -121,11 +122,15 @@ void main() {
         const vec4 wts = bilinear_weights(vec2(x - float(x0), y - float(y0)));
         const float I = dot(wts, vec4(texel_float(ref_intensity, j00), texel_float(ref_intensity, j10),
                                       texel_float(ref_intensity, j01), texel_float(ref_intensity, j11)));
-        const float r = (I - texel_float(live_intensity, i)) * (1.0 / 255.0);
+        const float I_live = texel_float(live_intensity, i);
+        rgb.s7.y += I;       // ICP_RGB_OFFSET_REF_INTENSITY
+        rgb.s7.z += I_live;  // ICP_RGB_OFFSET_LIVE_INTENSITY
+        const float r = (I - p.live_intensity_gain * I_live) * (1.0 / 255.0);
         if (abs(r) <= p.max_intensity_diff) {
           vec2 g = (wts.x * texel_vec2(ref_gradient, j00) + wts.y * texel_vec2(ref_gradient, j10) +
                     wts.z * texel_vec2(ref_gradient, j01) + wts.w * texel_vec2(ref_gradient, j11)) * (1.0 / 255.0);
-          if (p.esm_gradient != 0u) g = 0.5 * (g + texel_vec2(live_gradient, i) * (1.0 / 255.0));
+          if ((p.flags & ICP_RGB_FLAG_ESM) != 0u)
+            g = 0.5 * (g + p.live_intensity_gain * texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
           const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
           accumulate(rgb, sw * dI_dq, sw * cross(q, dI_dq), sw * r);
@@ -135,10 +140,10 @@ void main() {
   }
 
   // The outline (model -> live): each reference pixel against the unmasked live intensity where
-  // the motion puts it, r = I_live(pi(x)) - I_ref with x = T^-1 v_ref, unless the live depth there
+  // the motion puts it, r = g I_live(pi(x)) - I_ref with x = T^-1 v_ref, unless the live depth there
   // is nearer (an occluder). For an increment d applied as exp(d) T, dx = -R^T (d_t + d_w x v_ref),
   // so J = -(G, v_ref x G) with G = R dI/dx.
-  if (p.use_photometric != 0u && p.outline_photometric != 0u) {
+  if ((p.flags & ICP_RGB_FLAG_PHOTOMETRIC) != 0u && (p.flags & ICP_RGB_FLAG_OUTLINE) != 0u) {
     const mat3 Rt = transpose(R);
     const vec3 t_inv = -(Rt * t);
     for (uint ri = gl_GlobalInvocationID.x; ri < n; ri += stride) {
@@ -157,9 +162,9 @@ void main() {
       const vec4 wts = bilinear_weights(vec2(u - float(u0), v - float(v0)));
       const float I = dot(wts, vec4(texel_float(live_intensity, i00), texel_float(live_intensity, i10),
                                     texel_float(live_intensity, i01), texel_float(live_intensity, i11)));
-      const float r = (I - texel_float(ref_intensity, j)) * (1.0 / 255.0);
+      const float r = (p.live_intensity_gain * I - texel_float(ref_intensity, j)) * (1.0 / 255.0);
       if (abs(r) > p.max_intensity_diff) continue;
-      const vec2 g = (wts.x * texel_vec2(live_gradient, i00) + wts.y * texel_vec2(live_gradient, i10) +
+      const vec2 g = p.live_intensity_gain * (wts.x * texel_vec2(live_gradient, i00) + wts.y * texel_vec2(live_gradient, i10) +
                       wts.z * texel_vec2(live_gradient, i01) + wts.w * texel_vec2(live_gradient, i11)) * (1.0 / 255.0);
       const vec3 G = R * intensity_jacobian(g, x_live);
       const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);

@@ -49,6 +49,6 @@ void main() {
   const vec4 n_ref = texel_vec4(ref_normal, j);
   const vec3 d = q - v_ref.xyz;
   const float distance_m = n_ref.w > 0.0 ? abs(dot(n_ref.xyz, d)) : length(d);
-  const float intensity = abs(texel_float(ref_intensity, j) - texel_float(live_intensity, i)) * (1.0 / 255.0);
+  const float intensity = abs(texel_float(ref_intensity, j) - p.live_intensity_gain * texel_float(live_intensity, i)) * (1.0 / 255.0);
   residual[i] = vec4(distance_m, q.z - v_ref.z, intensity, MOTION_STATUS_ASSOCIATED);
 }

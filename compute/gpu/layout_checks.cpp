@@ -28,18 +28,23 @@ static_assert(sizeof(RemoveRegionParams) == 96 && offsetof(RemoveRegionParams, f
               offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80);
 static_assert(sizeof(MaskVerticesParams) == 40 && offsetof(MaskVerticesParams, level) == 16 &&
               offsetof(MaskVerticesParams, keep_mask) == 20 && offsetof(MaskVerticesParams, rect_x0) == 24);
-static_assert(sizeof(MotionResidualParams) == 88 && offsetof(MotionResidualParams, fx) == 48 &&
+static_assert(sizeof(MotionResidualParams) == 92 && offsetof(MotionResidualParams, live_intensity_gain) == 88 &&
+              offsetof(MotionResidualParams, fx) == 48 &&
               offsetof(MotionResidualParams, height) == 68 && offsetof(MotionResidualParams, rect_x0) == 72);
 static_assert(sizeof(RemoveRegionParams) <= 128 && sizeof(MaskVerticesParams) <= 128 &&
               sizeof(MotionResidualParams) <= 128);
 static_assert(sizeof(Surfel) == 48 && offsetof(Surfel, nx) == 16 && offsetof(Surfel, colour_rgba8) == 32);
-static_assert(sizeof(IcpRgbReduceParams) == 128 && offsetof(IcpRgbReduceParams, icp_noise_reference_depth_m) == 124 && offsetof(IcpRgbReduceParams, rgb_huber_delta) == 104 &&
-              offsetof(IcpRgbReduceParams, outline_photometric) == 112 && offsetof(IcpRgbReduceParams, icp_huber_delta_m) == 120 &&
-              offsetof(IcpRgbReduceParams, esm_gradient) == 108 && offsetof(IcpRgbReduceParams, fx) == 48 &&
-              offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, use_photometric) == 84 &&
+static_assert(sizeof(IcpRgbReduceParams) == 124 && offsetof(IcpRgbReduceParams, icp_noise_reference_depth_m) == 120 && offsetof(IcpRgbReduceParams, rgb_huber_delta) == 104 &&
+              offsetof(IcpRgbReduceParams, outline_occlusion_margin_m) == 112 && offsetof(IcpRgbReduceParams, icp_huber_delta_m) == 116 &&
+              offsetof(IcpRgbReduceParams, live_intensity_gain) == 108 && offsetof(IcpRgbReduceParams, fx) == 48 &&
+              offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, flags) == 84 &&
               offsetof(IcpRgbReduceParams, rect_x0) == 88 && sizeof(IcpRgbReduceParams) <= 128);
 static_assert(ICP_RGB_OFFSET_VALID >= ICP_RGB_OFFSET_ICP + ICP_RGB_TERM_VALUES && ICP_RGB_OFFSET_RGB > ICP_RGB_OFFSET_VALID &&
               ICP_RGB_OFFSET_RGB + ICP_RGB_TERM_VALUES <= ICP_RGB_PARTIAL_STRIDE && ICP_RGB_PARTIAL_STRIDE == 64);
+// The intensity sums ride in the photometric term's last vec4 (after its count).
+static_assert(ICP_RGB_OFFSET_REF_INTENSITY == ICP_RGB_OFFSET_RGB + ICP_RGB_TERM_VALUES &&
+              ICP_RGB_OFFSET_LIVE_INTENSITY == ICP_RGB_OFFSET_REF_INTENSITY + 1 &&
+              ICP_RGB_OFFSET_LIVE_INTENSITY < ICP_RGB_PARTIAL_STRIDE);
 static_assert(ICP_RGB_GROUP_SIZE / ICP_RGB_MAX_SUBGROUPS == 4);
 // renderer/ (view_splat.comp, view_resolve.comp)
 static_assert(sizeof(ViewSplatParams) == 96 && offsetof(ViewSplatParams, fx) == 48 &&

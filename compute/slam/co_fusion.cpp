@@ -279,9 +279,10 @@ void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
     const double moved_n = t.icp_inliers;
     const double moved_cost = mean_cost(t.icp_rms_m * t.icp_rms_m * moved_n, moved_n, t.rgb_rms * t.rgb_rms * t.rgb_residuals,
                                         t.rgb_residuals);
-    const HuberDeltas huber{tp.icp_huber_k * t.icp_rms_m, tp.photometric_huber_k * t.rgb_rms};  // as tracking's last iteration
+    const IterationScales scales{tp.icp_huber_k * t.icp_rms_m, tp.photometric_huber_k * t.rgb_rms,
+                                 t.live_intensity_gain};  // as tracking's last iteration
     const LinearSystemSums still =
-        m.tracker.compute_sums(m.stream, m.masked[0], m.prediction.levels[0], camera_motion, m.track_rect, huber);
+        m.tracker.compute_sums(m.stream, m.masked[0], m.prediction.levels[0], camera_motion, m.track_rect, scales);
     const double still_cost = mean_cost(still.icp[27], still.icp[28], still.rgb[27], still.rgb[28]);
     if (moved_n > 0 && still.icp[28] >= rest.min_correspondence_fraction * moved_n &&
         still_cost <= (1.0 + rest.max_cost_increase) * moved_cost)
@@ -296,7 +297,8 @@ void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
 // to the prediction's view by T_prediction_live), over its residual rectangle, read back.
 void CoFusion::compute_residuals(Model& m) {
   m.stream.run([&](gpu::CommandList& cmd) {
-    motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.T_prediction_live, m.residuals, m.residual_rect);
+    motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.T_prediction_live, m.residuals, m.residual_rect,
+                      m.tracking.live_intensity_gain);
   });
   m.residuals_host.resize(slots_.size() * 4);
   const size_t row_floats = size_t(intrinsics_.width) * 4, offset = size_t(m.residual_rect.y0) * row_floats;

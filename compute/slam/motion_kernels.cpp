@@ -86,7 +86,8 @@ std::vector<kernels::FramePyramid::Level> MotionKernels::allocate_masked_levels(
 
 void MotionKernels::residuals(gpu::CommandList& cmd, const kernels::FramePyramid::Level& live,
                               const kernels::FramePyramid::Level& reference, const Eigen::Isometry3d& T_reference_live,
-                              const gpu::BufferPtr& out, const std::optional<PixelRect>& rect) const {
+                              const gpu::BufferPtr& out, const std::optional<PixelRect>& rect,
+                              double live_intensity_gain) const {
   const std::string what = "MotionKernels::residuals";
   if (live.width != reference.width || live.height != reference.height)
     throw Error(what + ": live " + size_text(live.width, live.height) + " and reference " +
@@ -104,6 +105,7 @@ void MotionKernels::residuals(gpu::CommandList& cmd, const kernels::FramePyramid
   const Intrinsics& k = live.intrinsics;
   p.fx = float(k.fx), p.fy = float(k.fy), p.cx = float(k.cx), p.cy = float(k.cy);
   p.width = uint32_t(live.width), p.height = uint32_t(live.height);
+  p.live_intensity_gain = float(live_intensity_gain);
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
   if (r.empty()) return;
   p.rect_x0 = uint32_t(r.x0), p.rect_y0 = uint32_t(r.y0), p.rect_x1 = uint32_t(r.x1), p.rect_y1 = uint32_t(r.y1);

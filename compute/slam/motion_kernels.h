@@ -53,11 +53,13 @@ class MotionKernels {
   // `reference` maps (vertex, normal, intensity in the reference camera frame, same size and
   // intrinsics), at T_reference_live (reference point = T * live point), into `out`
   // (vec4 per pixel; layout in shared/host_device.h, MotionResidualParams). With `rect`, only
-  // live pixels in it are written. Throws cofusion::Error on mismatched sizes or missing / short
+  // live pixels in it are written. The live intensity is multiplied by `live_intensity_gain` (the
+  // tracking's exposure gain). Throws cofusion::Error on mismatched sizes or missing / short
   // buffers.
   void residuals(gpu::CommandList& cmd, const kernels::FramePyramid::Level& live,
                  const kernels::FramePyramid::Level& reference, const Eigen::Isometry3d& T_reference_live,
-                 const gpu::BufferPtr& out, const std::optional<PixelRect>& rect = std::nullopt) const;
+                 const gpu::BufferPtr& out, const std::optional<PixelRect>& rect = std::nullopt,
+                 double live_intensity_gain = 1.0) const;
 
   // The raw kernel, as residuals() records it (for the GPU-vs-CPU tests).
   void residuals(gpu::CommandList& cmd, const gpu::BufferPtr& live_vertex, const gpu::BufferPtr& live_intensity,

@@ -55,7 +55,8 @@ Image<vec4> motion_residuals(const Image<vec4>& live_vertex, const Image<float>&
     const vec4 n = ref_normal.at(xn, yn);
     const vec3 d = q - vec3(r);
     const float distance_m = n.w > 0.0f ? std::abs(glm::dot(vec3(n), d)) : glm::length(d);
-    const float intensity = std::abs(ref_intensity.at(xn, yn) - live_intensity.pixels[size_t(i)]) / 255.0f;
+    const float intensity =
+        std::abs(ref_intensity.at(xn, yn) - p.live_intensity_gain * live_intensity.pixels[size_t(i)]) / 255.0f;
     out.pixels[size_t(i)] = vec4(distance_m, q.z - r.z, intensity, MOTION_STATUS_ASSOCIATED);
   }
   return out;

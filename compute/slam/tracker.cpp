@@ -88,7 +88,7 @@ void Tracker::set_params(const TrackerParams& params) {
 LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
                                        const kernels::FramePyramid::Level& reference,
                                        const Eigen::Isometry3d& T_reference_live,
-                                       const std::optional<PixelRect>& rect, const HuberDeltas& huber) {
+                                       const std::optional<PixelRect>& rect, const IterationScales& scales) {
   const Intrinsics& k = live.intrinsics;
   L::IcpRgbReduceParams p{};
   const Eigen::Matrix<double, 3, 4> T = T_reference_live.matrix().topRows<3>();
@@ -103,12 +103,12 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   p.max_distance_m = static_cast<float>(params_.max_correspondence_distance_m);
   p.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_deg * std::numbers::pi / 180.0));
   p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
-  p.rgb_huber_delta = static_cast<float>(huber.rgb);
-  p.icp_huber_delta_m = static_cast<float>(huber.icp_m);
+  p.rgb_huber_delta = static_cast<float>(scales.rgb);
+  p.icp_huber_delta_m = static_cast<float>(scales.icp_m);
   p.icp_noise_reference_depth_m = static_cast<float>(params_.icp_noise_reference_depth_m);
-  p.use_photometric = params_.use_photometric ? 1u : 0u;
-  p.esm_gradient = params_.esm_gradient ? 1u : 0u;
-  p.outline_photometric = params_.outline_photometric ? 1u : 0u;
+  p.flags = (params_.use_photometric ? ICP_RGB_FLAG_PHOTOMETRIC : 0u) | (params_.esm_gradient ? ICP_RGB_FLAG_ESM : 0u) |
+            (params_.outline_photometric ? ICP_RGB_FLAG_OUTLINE : 0u);
+  p.live_intensity_gain = static_cast<float>(scales.live_gain);
   p.outline_occlusion_margin_m = static_cast<float>(params_.outline_occlusion_margin_m);
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
   p.rect_x0 = static_cast<uint32_t>(r.x0);
@@ -143,6 +143,8 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
     }
     sums.valid_live_pixels += part[ICP_RGB_OFFSET_VALID];
     sums.occluding_live_pixels += part[ICP_RGB_OFFSET_OCCLUDING];
+    sums.reference_intensity_sum += part[ICP_RGB_OFFSET_REF_INTENSITY];
+    sums.live_intensity_sum += part[ICP_RGB_OFFSET_LIVE_INTENSITY];
   }
   return sums;
 }
@@ -160,11 +162,11 @@ TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::Fr
   for (const auto& level : live) pixels.push_back(static_cast<long>(level.width) * level.height);
   return gauss_newton(
       pixels,
-      [&](int level, const Eigen::Isometry3d& T, const HuberDeltas& huber) {
+      [&](int level, const Eigen::Isometry3d& T, const IterationScales& scales) {
         const auto& l = live[size_t(level)];
         return compute_sums(stream, l, reference[size_t(level)], T,
                             rect_level0 ? std::optional(rect_level0->at_level(level, l.width, l.height)) : std::nullopt,
-                            huber);
+                            scales);
       },
       T_reference_live_guess, params_);
 }

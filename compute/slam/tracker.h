@@ -42,11 +42,12 @@ class Tracker {
   // The sums of one Gauss-Newton iteration at one level, at pose T_reference_live (what track()
   // computes per iteration; exposed for the GPU-vs-CPU tests).
   // `rect`: live pixels of this level that take part (none = all; clamped to the level).
-  // `huber`: residuals beyond its thresholds are Huber-weighted (0 = none).
+  // `scales`: residuals beyond its Huber thresholds are down-weighted (0 = none); the live
+  // intensity is multiplied by its gain.
   LinearSystemSums compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
                                 const kernels::FramePyramid::Level& reference,
                                 const Eigen::Isometry3d& T_reference_live,
-                                const std::optional<PixelRect>& rect = std::nullopt, const HuberDeltas& huber = {});
+                                const std::optional<PixelRect>& rect = std::nullopt, const IterationScales& scales = {});
 
   const TrackerParams& params() const { return params_; }
   void set_params(const TrackerParams& params);

@@ -86,9 +86,47 @@ std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<ke
   return out;
 }
 
+namespace {
+// The outline, model -> live (see TrackerParams::outline_photometric and icp_rgb_reduce.comp):
+// each reference pixel of `area` against the live intensity where the motion puts it.
+void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
+                      const TrackerParams& params, const PixelRect& area, const IterationScales& scales,
+                      LinearSystemSums& sums) {
+  const Intrinsics& k = live.intrinsics;
+  const int w = k.width, h = k.height;
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Matrix3d Rt = R.transpose();
+  const Eigen::Vector3d t_inv = -(Rt * T.translation());
+  for (int v = area.y0; v < area.y1; ++v)
+    for (int u = area.x0; u < area.x1; ++u) {
+      const glm::vec4& v_ref4 = ref.vertex.at(u, v);
+      if (!(v_ref4.w > 0)) continue;
+      const Eigen::Vector3d v_ref = xyz(v_ref4);
+      const Eigen::Vector3d x_live = Rt * v_ref + t_inv;
+      if (!(x_live.z() > 0)) continue;
+      const double x = k.fx * x_live.x() / x_live.z() + k.cx, y = k.fy * x_live.y() / x_live.z() + k.cy;
+      if (!(x >= 0 && y >= 0 && x < w - 1 && y < h - 1)) continue;
+      const float z_live = live.depth_m.width == w && live.depth_m.height == h
+                               ? live.depth_m.at(static_cast<int>(std::floor(x + 0.5)), static_cast<int>(std::floor(y + 0.5)))
+                               : 0.0f;
+      if (z_live > 0 && z_live < x_live.z() - params.outline_occlusion_margin_m) continue;  // occluded
+      const Bilinear b(x, y);
+      const double gain = scales.live_gain;
+      const double r = (gain * b(live.intensity, intensity_of) - ref.intensity.at(u, v)) / 255.0;
+      if (!(std::abs(r) <= params.max_intensity_diff)) continue;
+      const double gx = gain * b(live.gradient, gradient_x) / 255.0, gy = gain * b(live.gradient, gradient_y) / 255.0;
+      const Eigen::Vector3d G = R * intensity_jacobian(gx, gy, k, x_live);
+      const double sw = huber_sqrt_weight(r, scales.rgb);
+      Vector6d J;
+      J << -sw * G, -sw * v_ref.cross(G);
+      add(sums.rgb, J, sw * r);
+    }
+}
+}  // namespace
+
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
                               const TrackerParams& params, const std::optional<PixelRect>& rect,
-                              const HuberDeltas& huber) {
+                              const IterationScales& scales) {
   check_same_size(live, ref, "tracker reference");
   const Intrinsics& k = live.intrinsics;
   const int w = k.width, h = k.height;
@@ -120,7 +158,7 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
           Vector6d J;
           J << n_ref, q.cross(n_ref);
           const double r = n_ref.dot(d);
-          const double sw = huber_sqrt_weight(r, huber.icp_m) *
+          const double sw = huber_sqrt_weight(r, scales.icp_m) *
                             gpu_layout::depth_noise_scale(v_live.z, float(params.icp_noise_reference_depth_m));
           add(sums.icp, sw * J, sw * r);
         }
@@ -132,48 +170,24 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
         if (!(ref.vertex.at(b.x0, b.y0).w > 0 && ref.vertex.at(b.x0 + 1, b.y0).w > 0 && ref.vertex.at(b.x0, b.y0 + 1).w > 0 &&
               ref.vertex.at(b.x0 + 1, b.y0 + 1).w > 0))
           continue;
-        const double r = (b(ref.intensity, intensity_of) - live.intensity.at(u, v)) / 255.0;
+        const double I_ref = b(ref.intensity, intensity_of), I_live = live.intensity.at(u, v);
+        sums.reference_intensity_sum += I_ref;
+        sums.live_intensity_sum += I_live;
+        const double r = (I_ref - scales.live_gain * I_live) / 255.0;
         if (!(std::abs(r) <= params.max_intensity_diff)) continue;
         double gx = b(ref.gradient, gradient_x) / 255.0, gy = b(ref.gradient, gradient_y) / 255.0;
         if (params.esm_gradient) {  // mean with the live gradient at the pixel
-          gx = 0.5 * (gx + live.gradient.at(u, v).x / 255.0);
-          gy = 0.5 * (gy + live.gradient.at(u, v).y / 255.0);
+          gx = 0.5 * (gx + scales.live_gain * live.gradient.at(u, v).x / 255.0);
+          gy = 0.5 * (gy + scales.live_gain * live.gradient.at(u, v).y / 255.0);
         }
         const Eigen::Vector3d dI_dq = intensity_jacobian(gx, gy, k, q);
-        const double sw = huber_sqrt_weight(r, huber.rgb);
+        const double sw = huber_sqrt_weight(r, scales.rgb);
         Vector6d J;
         J << sw * dI_dq, sw * q.cross(dI_dq);
         add(sums.rgb, J, sw * r);
       }
     }
-  // The outline, model -> live (see TrackerParams::outline_photometric and icp_rgb_reduce.comp).
-  if (params.use_photometric && params.outline_photometric) {
-    const Eigen::Matrix3d Rt = R.transpose();
-    const Eigen::Vector3d t_inv = -(Rt * T.translation());
-    for (int v = area.y0; v < area.y1; ++v)
-      for (int u = area.x0; u < area.x1; ++u) {
-        const glm::vec4& v_ref4 = ref.vertex.at(u, v);
-        if (!(v_ref4.w > 0)) continue;
-        const Eigen::Vector3d v_ref = xyz(v_ref4);
-        const Eigen::Vector3d x_live = Rt * v_ref + t_inv;
-        if (!(x_live.z() > 0)) continue;
-        const double x = k.fx * x_live.x() / x_live.z() + k.cx, y = k.fy * x_live.y() / x_live.z() + k.cy;
-        if (!(x >= 0 && y >= 0 && x < w - 1 && y < h - 1)) continue;
-        const float z_live = live.depth_m.width == w && live.depth_m.height == h
-                                 ? live.depth_m.at(static_cast<int>(std::floor(x + 0.5)), static_cast<int>(std::floor(y + 0.5)))
-                                 : 0.0f;
-        if (z_live > 0 && z_live < x_live.z() - params.outline_occlusion_margin_m) continue;  // occluded
-        const Bilinear b(x, y);
-        const double r = (b(live.intensity, intensity_of) - ref.intensity.at(u, v)) / 255.0;
-        if (!(std::abs(r) <= params.max_intensity_diff)) continue;
-        const double gx = b(live.gradient, gradient_x) / 255.0, gy = b(live.gradient, gradient_y) / 255.0;
-        const Eigen::Vector3d G = R * intensity_jacobian(gx, gy, k, x_live);
-        const double sw = huber_sqrt_weight(r, huber.rgb);
-        Vector6d J;
-        J << -sw * G, -sw * v_ref.cross(G);
-        add(sums.rgb, J, sw * r);
-      }
-  }
+  if (params.use_photometric && params.outline_photometric) add_outline_term(live, ref, T, params, area, scales, sums);
   return sums;
 }
 
@@ -189,8 +203,8 @@ TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostL
   for (const auto& level : live) pixels.push_back(static_cast<long>(level.intrinsics.width) * level.intrinsics.height);
   return gauss_newton(
       pixels,
-      [&](int level, const Eigen::Isometry3d& T, const HuberDeltas& huber) {
-        return compute_sums(live[level], reference[level], T, params, std::nullopt, huber);
+      [&](int level, const Eigen::Isometry3d& T, const IterationScales& scales) {
+        return compute_sums(live[level], reference[level], T, params, std::nullopt, scales);
       },
       guess, params);
 }

@@ -32,11 +32,11 @@ HostLevel download_level(gpu::Stream& stream, const kernels::FramePyramid::Level
 std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& levels);
 
 // The sums of one iteration at pose T_reference_live (same definition as the GPU reduction).
-// `rect`: only live pixels in it take part (none = all). `huber`: residuals beyond its
-// thresholds get Huber weight delta / |r| (0 = none).
+// `rect`: only live pixels in it take part (none = all). `scales`: residuals beyond its Huber
+// thresholds get weight delta / |r| (0 = none); the live intensity is multiplied by its gain.
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& reference,
                               const Eigen::Isometry3d& T_reference_live, const TrackerParams& params,
-                              const std::optional<PixelRect>& rect = std::nullopt, const HuberDeltas& huber = {});
+                              const std::optional<PixelRect>& rect = std::nullopt, const IterationScales& scales = {});
 
 // Coarse-to-fine tracking on the CPU; same contract as Tracker::track.
 TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostLevel>& reference,

@@ -28,6 +28,13 @@ void unpack_term(const std::array<double, LinearSystemSums::kTermValues>& term, 
   for (int i = 0; i < 6; ++i) b(i) = term[21 + i];
 }
 
+double exposure_gain(const LinearSystemSums& s, const TrackerParams& params, double current) {
+  if (!params.exposure_compensation || !params.use_photometric) return 1.0;
+  if (!(s.reference_intensity_sum > 0 && s.live_intensity_sum > 0)) return current;
+  return std::clamp(s.reference_intensity_sum / s.live_intensity_sum, 1.0 / params.max_exposure_gain,
+                    params.max_exposure_gain);
+}
+
 double balanced_eigenvalue_ratio(const Matrix6d& H) {
   const double trace_t = H.topLeftCorner<3, 3>().trace(), trace_r = H.bottomRightCorner<3, 3>().trace();
   if (!(trace_t > 0) || !(trace_r > 0)) return 0;
@@ -54,6 +61,7 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.max_intensity_diff > 0)) bad("max_intensity_diff must be > 0");
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
   if (!(p.icp_huber_k >= 0)) bad("icp_huber_k must be >= 0");
+  if (!(p.max_exposure_gain >= 1 && std::isfinite(p.max_exposure_gain))) bad("max_exposure_gain must be >= 1");
   if (!(p.icp_noise_reference_depth_m >= 0 && std::isfinite(p.icp_noise_reference_depth_m)))
     bad("icp_noise_reference_depth_m must be >= 0");
   if (!(p.outline_occlusion_margin_m >= 0 && std::isfinite(p.outline_occlusion_margin_m)))
@@ -82,14 +90,23 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
   const int levels = static_cast<int>(level_pixels.size());
   Eigen::Isometry3d T = guess;
   bool evaluated = false;
-  HuberDeltas huber;  // the first iteration is plain least squares
+  IterationScales scales;  // the first iteration is plain least squares
   for (int level = levels - 1; level >= 0; --level) {
     const std::string where = "level " + std::to_string(level);
     // Fewer pixels, fewer correspondences needed (but never fewer than two per unknown).
     const double pixel_share = static_cast<double>(level_pixels[level]) / static_cast<double>(level_pixels[0]);
     const double min_corr = std::max(12.0, params.min_correspondences * pixel_share);
     for (int it = 0; it < params.iterations_per_level[level]; ++it) {
-      const LinearSystemSums s = sums(level, T, huber);
+      LinearSystemSums s = sums(level, T, scales);
+      if (!evaluated) {
+        // The first sums measure the live frame's exposure; they are formed again with it when it
+        // differs from the assumed one by more than 0.2% (half an intensity level at mid-grey).
+        const double gain = exposure_gain(s, params, scales.live_gain);
+        if (std::abs(gain - scales.live_gain) > 0.002) {
+          scales.live_gain = gain;
+          s = sums(level, T, scales);
+        }
+      }
       evaluated = true;
       ++result.iterations;
       result.icp_inliers = static_cast<int>(s.icp[28]);
@@ -100,7 +117,9 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
       result.inlier_ratio = comparable > 0 ? s.icp[28] / comparable : 0.0;
       result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
       result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
-      huber = {params.icp_huber_k * result.icp_rms_m, params.photometric_huber_k * result.rgb_rms};
+      result.live_intensity_gain = scales.live_gain;
+      scales = {params.icp_huber_k * result.icp_rms_m, params.photometric_huber_k * result.rgb_rms,
+                exposure_gain(s, params, scales.live_gain)};
       if (level > 0 && s.icp[28] < params.min_coarse_level_correspondences) break;  // on to the next finer level
       if (s.icp[28] < min_corr)
         return fail("too few ICP correspondences at " + where + ": " + std::to_string(result.icp_inliers) +

@@ -82,6 +82,14 @@ struct TrackerParams {
   // can be trusted; nearer points keep weight 1. Far, noisy depth otherwise outweighs the
   // photometric term and the near geometry (an office seen from 2-5 m). 0 = no weighting.
   double icp_noise_reference_depth_m = 0;
+  // Exposure compensation: the live intensity is multiplied by a gain, re-estimated at every
+  // iteration as sum(I_reference) / sum(I_live) over the photometric term's pixels, before the
+  // photometric residuals are formed. Auto-exposure changes a frame's brightness by 20% within a
+  // few frames (Bonn crowd frames 18-24) while the model keeps the colours it fused; without the
+  // gain that difference pulls the pose by centimetres. The gain is clamped to
+  // [1 / max_exposure_gain, max_exposure_gain].
+  bool exposure_compensation = true;
+  double max_exposure_gain = 2.0;
 
   // Failure rules. On failure the result pose is the guess.
   // Fewest ICP correspondences at full resolution; coarser levels need this times their share of
@@ -118,11 +126,15 @@ struct TrackerParams {
   int reduction_workgroups = 16;
 };
 
-// Huber thresholds of one iteration's sums: residuals beyond them get weight delta / |r| (the
-// sums then hold w J^T J, w J^T r, w r^2); 0 = plain least squares for that term.
-struct HuberDeltas {
+// What one iteration's sums depend on besides the pose. Huber thresholds: residuals beyond them
+// get weight delta / |r| (the sums then hold w J^T J, w J^T r, w r^2); 0 = plain least squares
+// for that term.
+struct IterationScales {
   double icp_m = 0;  // point-to-plane residual, metres
   double rgb = 0;    // photometric residual, intensity / 255
+  // The live intensity is multiplied by this before it is compared with the reference's: the
+  // live frame's exposure relative to the model's colours (TrackerParams::exposure_compensation).
+  double live_gain = 1;
 };
 
 struct TrackingResult {
@@ -142,6 +154,7 @@ struct TrackingResult {
   double inlier_ratio = 0;
   double icp_rms_m = 0;       // RMS point-to-plane residual, metres
   double rgb_rms = 0;         // RMS photometric residual (Huber-weighted), intensity / 255
+  double live_intensity_gain = 1;  // the live frame's exposure gain used by the last iteration
   double eigenvalue_ratio = 0;  // balanced smallest / largest eigenvalue of the last system
   int iterations = 0;         // Gauss-Newton iterations run over all levels
   bool failed = false;
@@ -158,10 +171,19 @@ struct LinearSystemSums {
   // Of those, the ones in front of the reference surface by more than the correspondence distance:
   // occluders in the reference's free space (host_device.h, ICP_RGB_OFFSET_OCCLUDING).
   double occluding_live_pixels = 0;
+  // Over the direct photometric term's geometrically valid pixels (before its intensity outlier
+  // test): the sums of the reference's intensity and of the live intensity (without gain), [0, 255].
+  double reference_intensity_sum = 0;
+  double live_intensity_sum = 0;
 };
 
 // Unpacks one term into H = J^T J, b = J^T r.
 void unpack_term(const std::array<double, LinearSystemSums::kTermValues>& term, Matrix6d& H, Vector6d& b);
+
+// The live frame's exposure gain that one iteration's sums measure, sum(I_reference) /
+// sum(I_live) clamped by TrackerParams::max_exposure_gain; `current` when they hold no pixel, 1
+// without exposure compensation.
+double exposure_gain(const LinearSystemSums& sums, const TrackerParams& params, double current);
 
 // Smallest / largest eigenvalue of H after scaling the rotation rows/columns so both diagonal
 // blocks have equal trace (0 when H has no translation information).
@@ -170,7 +192,7 @@ double balanced_eigenvalue_ratio(const Matrix6d& H);
 // The sums of one iteration at pyramid level `level` (0 = finest) and pose T_reference_live, with
 // residuals beyond the scales Huber-weighted.
 using SumsAtLevel =
-    std::function<LinearSystemSums(int level, const Eigen::Isometry3d& T_reference_live, const HuberDeltas& huber)>;
+    std::function<LinearSystemSums(int level, const Eigen::Isometry3d& T_reference_live, const IterationScales& huber)>;
 
 // Coarse-to-fine Gauss-Newton over `level_pixels.size()` levels (pixel counts, finest first):
 // T <- exp(xi) * T with H xi = -b, H = H_icp + lambda H_rgb. Applies every failure rule of

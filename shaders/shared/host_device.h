@@ -249,6 +249,9 @@ struct MotionResidualParams {
   // Only live pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are written; the rest of the
   // output is left as it is (the host treats it as "no geometry" for this model).
   uint rect_x0, rect_y0, rect_x1, rect_y1;
+  // The live intensity is multiplied by this before it is compared with the reference's (the
+  // model's tracking's exposure gain, TrackerParams::exposure_compensation; 1 = none).
+  float live_intensity_gain;
 };
 
 // ---- test_fill.comp: used by the compute-core tests only -------------------------------------
@@ -272,7 +275,11 @@ struct TestTexelParams {
 // of live pixels with a valid vertex and normal at ICP_RGB_OFFSET_VALID, of those the ones lying
 // in front of the reference surface by more than max_distance_m (occluders in the reference's
 // free space: a person walking in front of the background) at ICP_RGB_OFFSET_OCCLUDING, the
-// photometric term (intensity / 255) at ICP_RGB_OFFSET_RGB; the other floats are 0.
+// photometric term (intensity / 255) at ICP_RGB_OFFSET_RGB, and over the pixels of the direct
+// photometric term that are geometrically valid (before its intensity outlier test) the sums of
+// the reference intensity and of the (ungained) live intensity at ICP_RGB_OFFSET_REF_INTENSITY and
+// ICP_RGB_OFFSET_LIVE_INTENSITY (their ratio is the next iteration's exposure gain); the other
+// floats are 0.
 // Each 29-value term: the 21 entries of the upper triangle of J^T J (row-major: (0,0), (0,1) ..
 // (0,5), (1,1) .. (5,5)), the 6 entries of J^T r, sum r^2 and the number of residuals. J is the
 // derivative with respect to a left-composed twist (v, w) (see compute/common/se3.h).
@@ -292,6 +299,18 @@ struct TestTexelParams {
 #define ICP_RGB_OFFSET_VALID 29
 #define ICP_RGB_OFFSET_OCCLUDING 30
 #define ICP_RGB_OFFSET_RGB 32
+#define ICP_RGB_OFFSET_REF_INTENSITY 61
+#define ICP_RGB_OFFSET_LIVE_INTENSITY 62
+// IcpRgbReduceParams::flags
+#define ICP_RGB_FLAG_PHOTOMETRIC 1u  // without it the photometric sums stay zero
+// Photometric Jacobian from the mean of the reference's intensity gradient at the warped point and
+// the live gradient at the pixel (efficient second-order minimisation), not the reference's alone.
+#define ICP_RGB_FLAG_ESM 2u
+// Also every reference pixel in the rect against the live intensity where the motion puts it
+// (r = g I_live(pi(T^-1 v_ref)) - I_ref, live gradient), added to the photometric sums. The live
+// intensity is not masked, so a model whose outline lags its object sees the background there:
+// the outline constrains motions the object's own pixels do not (TrackerParams).
+#define ICP_RGB_FLAG_OUTLINE 4u
 #define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup (16 vec4)
 #define ICP_RGB_MAX_SUBGROUPS 64          // shared memory holds this many subgroups: subgroup size >= 4
 struct IcpRgbReduceParams {
@@ -301,21 +320,16 @@ struct IcpRgbReduceParams {
   float max_distance_m;        // ICP: |T v_live - v_ref| above this is no correspondence
   float min_normal_cos;        // ICP: cos of the largest angle between R n_live and n_ref
   float max_intensity_diff;    // photometric: |r| above this (intensity / 255) is an outlier
-  uint use_photometric;        // 0: the photometric sums stay zero
+  uint flags;                  // ICP_RGB_FLAG_*
   // Only live pixels in [rect_x0, rect_x0 + rect_width) x [rect_y0, rect_y0 + rect_height) take
   // part (a model's own pixels; the rest of its masked live map is invalid anyway).
   uint rect_x0, rect_y0, rect_width, rect_height;
   // Photometric: residuals beyond this (intensity / 255) get Huber weight delta / |r| (the sums
   // then hold w J^T J, w J^T r, w r^2); 0 = none.
   float rgb_huber_delta;
-  // Photometric Jacobian: 0 = the reference's intensity gradient at the warped point; 1 = the mean
-  // of that and the live gradient at the pixel (efficient second-order minimisation).
-  uint esm_gradient;
-  // 1: also every reference pixel in the rect against the live intensity where the motion puts it
-  // (r = I_live(pi(T^-1 v_ref)) - I_ref, live gradient), added to the photometric sums. The live
-  // intensity is not masked, so a model whose outline lags its object sees the background there:
-  // the outline constrains motions the object's own pixels do not (TrackerParams).
-  uint outline_photometric;
+  // Photometric: the live intensity (and its gradient) is multiplied by this before it is compared
+  // with the reference's (exposure compensation; 1 = none).
+  float live_intensity_gain;
   // Outline term: a model pixel whose live depth there is nearer by more than this is occluded.
   float outline_occlusion_margin_m;
   // ICP: point-to-plane residuals beyond this (metres) get Huber weight delta / |r|, like the

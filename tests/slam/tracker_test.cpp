@@ -276,6 +276,27 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // An exposure gain on the live intensity (IterationScales::live_gain), with the outline term:
+    // GPU and CPU alike; the intensity sums (before the gain) match too.
+    {
+      slam::TrackerParams outline = params;
+      outline.outline_photometric = true;
+      tracker_->set_params(outline);
+      const slam::IterationScales gained{0, 0, 1.1};
+      const slam::LinearSystemSums g =
+          tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, std::nullopt, gained);
+      tracker_->set_params(params);
+      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, outline, std::nullopt, gained);
+      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " gained rgb");
+      EXPECT_NEAR(g.reference_intensity_sum, c.reference_intensity_sum, 1e-5 * c.reference_intensity_sum + 1e-3) << what;
+      EXPECT_NEAR(g.live_intensity_sum, c.live_intensity_sum, 1e-5 * c.live_intensity_sum + 1e-3) << what;
+      EXPECT_NEAR(g.reference_intensity_sum, cpu.reference_intensity_sum, 1e-5 * cpu.reference_intensity_sum + 1e-3);
+      if (s.w >= 160) {
+        EXPECT_GT(c.live_intensity_sum, 0.5 * cpu.rgb[28] * 50) << what << ": no intensity summed";
+        EXPECT_GT(std::abs(c.rgb[27] - cpu.rgb[27]), 1e-3 * cpu.rgb[27]) << what << ": the gain changed nothing";
+      }
+    }
+
     // With the outline term (model -> live): the ICP term as before, more photometric residuals.
     {
       slam::TrackerParams outline = params;
@@ -332,8 +353,8 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     // count and its sum r^2 drops, an unweighted one stays as it was.
     const auto rms = [](const auto& term) { return term[28] > 0 ? std::sqrt(term[27] / term[28]) : 0.0; };
     const double icp_delta = 0.5 * rms(cpu.icp), rgb_delta = 0.5 * rms(cpu.rgb);
-    for (const slam::HuberDeltas delta : {slam::HuberDeltas{icp_delta, 0}, slam::HuberDeltas{0, rgb_delta},
-                                          slam::HuberDeltas{icp_delta, rgb_delta}}) {
+    for (const slam::IterationScales delta : {slam::IterationScales{icp_delta, 0}, slam::IterationScales{0, rgb_delta},
+                                          slam::IterationScales{icp_delta, rgb_delta}}) {
       const std::string in = what + " huber (icp " + std::to_string(delta.icp_m) + ", rgb " + std::to_string(delta.rgb) + ")";
       const slam::LinearSystemSums g =
           tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, std::nullopt, delta);
@@ -408,7 +429,7 @@ std::array<double, slam::LinearSystemSums::kTermValues> diagonal_term(const Vect
 // Sums of ICP terms only (icp_at(level); 6000 valid live pixels), recording the levels asked for.
 slam::SumsAtLevel recorded_icp_sums(std::vector<int>& levels_seen,
                                     std::function<std::array<double, slam::LinearSystemSums::kTermValues>(int)> icp_at) {
-  return [&levels_seen, icp_at = std::move(icp_at)](int level, const Isometry3d&, const slam::HuberDeltas&) {
+  return [&levels_seen, icp_at = std::move(icp_at)](int level, const Isometry3d&, const slam::IterationScales&) {
     levels_seen.push_back(level);
     slam::LinearSystemSums s;
     s.valid_live_pixels = 6000;
@@ -469,7 +490,7 @@ TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
 TEST(TrackerSolver, InlierRatioLeavesOutOccludingLivePixels) {
   const std::vector<long> pixels = {640 * 480};
   const auto sums_with = [](double inliers, double occluding) -> slam::SumsAtLevel {
-    return [=](int, const Isometry3d&, const slam::HuberDeltas&) {
+    return [=](int, const Isometry3d&, const slam::IterationScales&) {
       slam::LinearSystemSums s;
       s.valid_live_pixels = 6000;
       s.occluding_live_pixels = occluding;
@@ -674,6 +695,40 @@ TEST_F(Tracking, SinglePlaneIsDegenerateForIcpButNotWithTexture) {
             << describe(r_rgb) << "\n";
   EXPECT_LT(e.translation_m, 0.002);
   EXPECT_LT(e.rotation_deg, 0.1);
+}
+
+// Auto-exposure: the live frame 20% darker than the reference it is tracked against. The gain
+// (TrackerParams::exposure_compensation) is measured from the photometric pairs and the plane,
+// whose in-plane motion only the photometric term observes, is tracked as before; without it the
+// darker frame pulls the pose.
+TEST_F(Tracking, ExposureChangeIsCompensated) {
+  const Intrinsics k = intrinsics_for(640, 480);
+  Isometry3d motion = Isometry3d::Identity();
+  motion.linear() = Eigen::AngleAxisd(1.0 * kDeg, Vector3d(0.2, 1.0, 0.1).normalized()).toRotationMatrix();
+  motion.translation() = Vector3d(0.02, 0.015, 0.01);
+  const auto reference = make_frame(render(plane_scene(), k, Isometry3d::Identity()), k);
+  View darker = render(plane_scene(), k, motion);
+  for (uint8_t& c : darker.rgb) c = static_cast<uint8_t>(std::lround(0.8 * c));
+  const auto live = make_frame(darker, k);
+  const auto track_with = [&](bool compensation) {
+    slam::TrackerParams params;
+    params.exposure_compensation = compensation;
+    tracker_->set_params(params);
+    const auto r = tracker_->track(stream(), live.levels, reference.levels, Isometry3d::Identity());
+    tracker_->set_params(slam::TrackerParams{});
+    const PoseError e = pose_error(r.T_reference_live, motion);
+    std::cout << "  exposure compensation " << compensation << ": gain " << r.live_intensity_gain << ", error "
+              << e.translation_m * 1000 << " mm, " << e.rotation_deg << " deg; " << describe(r) << "\n";
+    return std::pair(r, e);
+  };
+  const auto [r, e] = track_with(true);
+  ASSERT_FALSE(r.failed) << describe(r);
+  EXPECT_NEAR(r.live_intensity_gain, 1.25, 0.01);
+  EXPECT_LT(e.translation_m, 0.002);
+  EXPECT_LT(e.rotation_deg, 0.1);
+  const auto [r_off, e_off] = track_with(false);
+  EXPECT_EQ(r_off.live_intensity_gain, 1.0);
+  EXPECT_TRUE(r_off.failed || e_off.translation_m > 2 * e.translation_m) << describe(r_off);
 }
 
 TEST_F(Tracking, MismatchedInputsThrow) {
