@@ -29,7 +29,7 @@ void main() {
   vec3 v = texel_vec4(vertex, i).xyz, n = texel_vec4(normal, i).xyz;
   float alpha = measurement_weight(px, p.cx, p.cy);
   float radius = surfel_radius(v, n, p.fx);
-  vec3 colour = vec3(byte_at(3u * i), byte_at(3u * i + 1u), byte_at(3u * i + 2u));
+  vec3 colour = p.colour_gain * vec3(byte_at(3u * i), byte_at(3u * i + 1u), byte_at(3u * i + 2u));
   vec3 v_model = rigid_apply_inverse(p.T_camera_model, v);
   vec3 n_model = rigid_rotate_inverse(p.T_camera_model, n);
   if (a == FUSE_NO_SURFEL) {

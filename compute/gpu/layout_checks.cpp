@@ -18,7 +18,7 @@ static_assert(sizeof(SplatParams) == 100 && offsetof(SplatParams, fx) == 48 && o
 static_assert(sizeof(ResolveParams) == 112 && offsetof(ResolveParams, width) == 64 && offsetof(ResolveParams, x0) == 80 &&
               offsetof(ResolveParams, area_x0) == 96);
 static_assert(sizeof(SubsampleParams) == 32 && offsetof(SubsampleParams, x0) == 16);
-static_assert(sizeof(FuseParams) == 124 && offsetof(FuseParams, fx) == 48 && offsetof(FuseParams, label) == 104 &&
+static_assert(sizeof(FuseParams) == 128 && offsetof(FuseParams, colour_gain) == 124 && offsetof(FuseParams, fx) == 48 && offsetof(FuseParams, label) == 104 &&
               offsetof(FuseParams, rect_x0) == 108);
 // Vulkan guarantees 128 bytes of push constants.
 static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128 &&

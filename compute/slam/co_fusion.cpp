@@ -367,7 +367,7 @@ void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, con
   const FusionStats stats =
       surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
                     params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
-                    m.id == 0 ? std::nullopt : std::optional(fuse_rect));
+                    m.id == 0 ? std::nullopt : std::optional(fuse_rect), float(m.tracking.live_intensity_gain));
   m.culled += stats.culled;
 }
 

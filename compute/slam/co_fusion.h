@@ -156,7 +156,7 @@ struct LifecycleParams {
   // Object models also track with their outline (TrackerParams::outline_photometric).
   bool object_outline_photometric = true;
   // Object models' Gauss-Newton iterations per level (TrackerParams::iterations_per_level; the
-  // background's default is {1, 2, 4, 8}). Objects are small, so their iterations are cheap (3 ms
+  // background's default is {1, 4, 6, 10}). Objects are small, so their iterations are cheap (3 ms
   // at full resolution), and they need them: with the background's, table_placement's can was lost
   // and the ball spawned twice.
   std::vector<int> object_iterations_per_level = {2, 4, 6, 10};

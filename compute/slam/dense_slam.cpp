@@ -67,7 +67,7 @@ FrameResult DenseSlam::process(const float* depth_m, const uint8_t* rgb) {
   // A frame whose tracking failed is not fused: its pose is a guess and would corrupt the map.
   if (!r.tracking.failed) {
     r.fusion = surfels_.fuse(stream_, model_, live_, T_world_camera_.inverse() * model_.T_world_model, frame_,
-                             params_.fusion);
+                             params_.fusion, nullptr, 0, std::nullopt, float(r.tracking.live_intensity_gain));
   }
   r.stage_ms.emplace_back("fuse", clock.lap_ms());
   ++frame_;

@@ -288,7 +288,7 @@ void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr&
 FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
                                   const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
                                   const gpu::BufferPtr& labels, unsigned label,
-                                  const std::optional<PixelRect>& rect) const {
+                                  const std::optional<PixelRect>& rect, float colour_gain) const {
   const auto& l0 = live.levels.at(0);
   const Intrinsics& k = l0.intrinsics;
   const unsigned pixels = unsigned(k.width) * unsigned(k.height);
@@ -335,6 +335,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   fp.label = label;
   fp.rect_x0 = uint32_t(area.x0), fp.rect_y0 = uint32_t(area.y0), fp.rect_x1 = uint32_t(area.x1),
   fp.rect_y1 = uint32_t(area.y1);
+  fp.colour_gain = colour_gain;
 
   L::CleanupParams cp{};
   std::copy(T, T + 12, cp.T_camera_model);

@@ -124,11 +124,13 @@ class SurfelPipelines {
   // and after cleanup when the count is over the limit). With `labels` (uint per pixel), only pixels whose label is
   // `label` are fused. With `rect` (level-0 pixels), only pixels in it are fused: with labels it
   // must hold every pixel labelled `label`, and then the result is the same, at the cost of the
-  // rectangle instead of the image. Synchronous: returns when the model's new count is known.
+  // rectangle instead of the image. The live colour is multiplied by `colour_gain` (the frame's
+  // exposure against the model's, from tracking). Synchronous: returns when the model's new count
+  // is known.
   FusionStats fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
                    const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
                    const gpu::BufferPtr& labels = nullptr, unsigned label = 0,
-                   const std::optional<PixelRect>& rect = std::nullopt) const;
+                   const std::optional<PixelRect>& rect = std::nullopt, float colour_gain = 1.0f) const;
 
   // Removes every surfel of `model` (seen at T_camera_model) that projects onto a live pixel whose
   // label (`labels`: uint per level-0 pixel of `live`) is `label` and that lies in front of or at

@@ -168,7 +168,7 @@ void update(std::vector<Surfel>& surfels, const Association& a, const LiveMaps& 
       const vec3 v = vec3(live.vertex.pixels[i]), n = vec3(live.normal.pixels[i]);
       const float alpha = measurement_weight(int(x), int(y), p.cx, p.cy);
       const float radius = surfel_radius(v, n, p.fx);
-      const vec3 colour(live.rgb[3 * i], live.rgb[3 * i + 1], live.rgb[3 * i + 2]);
+      const vec3 colour = p.colour_gain * vec3(live.rgb[3 * i], live.rgb[3 * i + 1], live.rgb[3 * i + 2]);
       const vec3 v_model = apply_inverse(p.T_camera_model, v), n_model = rotate_inverse(p.T_camera_model, n);
       if (ai == FUSE_NO_SURFEL) {
         Surfel s{};

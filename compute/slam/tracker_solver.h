@@ -17,15 +17,12 @@ namespace cofusion::slam {
 // one, else measured on the synthetic scenes and TUM fr2/desk (see tests/slam/tracker_test.cpp).
 struct TrackerParams {
   // Most Gauss-Newton iterations per pyramid level, index 0 = full resolution. Each level has 1/4
-  // of the pixels of the one below, so coarse iterations are cheap and do most of the work.
-  // Measured on lavapipe (2 cores shared with other work; `bench --kernel-profile`): one 640x480
-  // iteration (ICP + photometric) costs 14 ms of GPU time, 320x240 3 ms, 80x60 0.5 ms (22, 5 and
-  // 0.7 ms before the kernels read through texel views); levels 1-3 ran to their caps in most
-  // frames. {1, 2, 4, 8} against {2, 4, 6, 10}: TUM fr2/desk 3.9 vs 3.7 mm,
-  // fr1/rpy 2.56 vs 2.58 cm, the generated scenes within their run-to-run spread; over six
-  // interleaved benchmark runs, background only 15-45% faster, background + 2 objects (whose
-  // trackers keep more: LifecycleParams::object_iterations_per_level) median 3.3 -> 3.6 fps.
-  std::vector<int> iterations_per_level = {1, 2, 4, 8};
+  // of the pixels of the one below, so coarse iterations are cheap and do most of the work: on
+  // lavapipe one 640x480 iteration (ICP + photometric) costs about 14 ms of GPU time, 320x240 3 ms,
+  // 80x60 0.5 ms. The finest level gets one iteration (its step is below a millimetre once the
+  // coarser ones converged); the coarser ones enough to converge where the view is far and weakly
+  // constrained (docs/experiments.md, "Bonn crowd: the empty office").
+  std::vector<int> iterations_per_level = {1, 4, 6, 10};
 
   // ICP data association (ElasticFusion's values): projective nearest pixel, then rejection.
   double max_correspondence_distance_m = 0.1;  // |T v_live - v_ref| above this: no correspondence
@@ -80,8 +77,10 @@ struct TrackerParams {
   // this is scaled by sigma(this depth) / sigma(its depth), sigma the sensor's axial noise
   // (shared/depth_noise.h: 2 mm at 1 m, 14 mm at 3 m), so every pair counts by how much its depth
   // can be trusted; nearer points keep weight 1. Far, noisy depth otherwise outweighs the
-  // photometric term and the near geometry (an office seen from 2-5 m). 0 = no weighting.
-  double icp_noise_reference_depth_m = 0;
+  // photometric term and the near geometry (an office seen from 2-5 m). 0 = no weighting. The
+  // reference, 1 m, keeps desk-range scenes (TUM fr2/desk, the generated scenes) almost as they
+  // were.
+  double icp_noise_reference_depth_m = 1.0;
   // Exposure compensation: the live intensity is multiplied by a gain, re-estimated at every
   // iteration as sum(I_reference) / sum(I_live) over the photometric term's pixels, before the
   // photometric residuals are formed. Auto-exposure changes a frame's brightness by 20% within a

@@ -172,6 +172,9 @@ struct FuseParams {
   // Only live pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are associated and fused (a
   // model's labelled pixels); association entries and index-map rows outside are not touched.
   uint rect_x0, rect_y0, rect_x1, rect_y1;
+  // The live colour is multiplied by this before it is fused: the frame's exposure gain against
+  // the model (TrackerParams::exposure_compensation), so a model keeps one exposure; 1 = as read.
+  float colour_gain;
 };
 
 // ---- surfel_cleanup.comp: drop unstable / free-space-violating surfels, compact the rest ----

@@ -312,6 +312,7 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       fp.max_radius_growth = 1.5f, fp.use_labels = use_labels, fp.label = 1;
       fp.rect_x0 = uint32_t(rect.x0), fp.rect_y0 = uint32_t(rect.y0), fp.rect_x1 = uint32_t(rect.x1),
       fp.rect_y1 = uint32_t(rect.y1);
+      fp.colour_gain = variant == 1 ? 0.8f : 1.0f;  // an exposure gain on the labelled variant
 
       std::vector<Surfel> storage = surfels;
       storage.resize(capacity);
