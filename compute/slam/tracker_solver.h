@@ -77,10 +77,10 @@ struct TrackerParams {
   // this is scaled by sigma(this depth) / sigma(its depth), sigma the sensor's axial noise
   // (shared/depth_noise.h: 2 mm at 1 m, 14 mm at 3 m), so every pair counts by how much its depth
   // can be trusted; nearer points keep weight 1. Far, noisy depth otherwise outweighs the
-  // photometric term and the near geometry (an office seen from 2-5 m). 0 = no weighting. The
-  // reference, 1 m, keeps desk-range scenes (TUM fr2/desk, the generated scenes) almost as they
-  // were.
-  double icp_noise_reference_depth_m = 1.0;
+  // photometric term and the near geometry (an office seen from 2-5 m). 0 = no weighting. Off by
+  // default: 1 m took Bonn crowd from 12.8-15 to 6.9 cm but the generated walking_people scene
+  // from 3.6 mm to 3.1 cm (docs/experiments.md); `--config` turns it on.
+  double icp_noise_reference_depth_m = 0;
   // Exposure compensation: the live intensity is multiplied by a gain, re-estimated at every
   // iteration as sum(I_reference) / sum(I_live) over the photometric term's pixels, before the
   // photometric residuals are formed. Auto-exposure changes a frame's brightness by 20% within a
