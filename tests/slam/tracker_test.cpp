@@ -13,6 +13,7 @@
 #include <numbers>
 #include <random>
 #include <sstream>
+#include <utility>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -228,6 +229,15 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     const auto reference_host = ref::download_level(stream(), reference.levels[0]);
     const slam::LinearSystemSums gpu = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
     const slam::LinearSystemSums cpu = ref::compute_sums(live_host, reference_host, T, params);
+    // The GPU's and the CPU reference's sums with other parameters (the tracker's are restored).
+    const auto gpu_and_cpu = [&](const slam::TrackerParams& q, const std::optional<PixelRect>& rect = std::nullopt,
+                                 const slam::IterationScales& scales = {}) {
+      tracker_->set_params(q);
+      const slam::LinearSystemSums g =
+          tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, rect, scales);
+      tracker_->set_params(params);
+      return std::pair(g, ref::compute_sums(live_host, reference_host, T, q, rect, scales));
+    };
     EXPECT_EQ(gpu.valid_live_pixels, cpu.valid_live_pixels) << what;
     EXPECT_EQ(gpu.occluding_live_pixels, cpu.occluding_live_pixels) << what;
     if (s.w >= 160) {
@@ -244,10 +254,7 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     {
       slam::TrackerParams plain = params;
       plain.esm_gradient = false;
-      tracker_->set_params(plain);
-      const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
-      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, plain);
-      tracker_->set_params(params);
+      const auto [g, c] = gpu_and_cpu(plain);
       expect_sums_near(g.icp, c.icp, 2e-3, what + " no-esm icp");
       expect_sums_near(g.rgb, c.rgb, 2e-3, what + " no-esm rgb");
       EXPECT_EQ(c.icp, cpu.icp) << what;
@@ -263,10 +270,7 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     {
       slam::TrackerParams weighted = params;
       weighted.icp_noise_reference_depth_m = 0.8;
-      tracker_->set_params(weighted);
-      const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
-      tracker_->set_params(params);
-      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, weighted);
+      const auto [g, c] = gpu_and_cpu(weighted);
       expect_sums_near(g.icp, c.icp, 2e-3, what + " noise-weighted icp");
       EXPECT_EQ(c.icp[28], cpu.icp[28]) << what;
       EXPECT_EQ(c.rgb, cpu.rgb) << what;
@@ -281,18 +285,14 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     {
       slam::TrackerParams outline = params;
       outline.outline_photometric = true;
-      tracker_->set_params(outline);
-      const slam::IterationScales gained{0, 0, 1.1};
-      const slam::LinearSystemSums g =
-          tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, std::nullopt, gained);
-      tracker_->set_params(params);
-      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, outline, std::nullopt, gained);
+      const auto [g, c] = gpu_and_cpu(outline, std::nullopt, slam::IterationScales{0, 0, 1.1});
       expect_sums_near(g.rgb, c.rgb, 2e-3, what + " gained rgb");
       EXPECT_NEAR(g.reference_intensity_sum, c.reference_intensity_sum, 1e-5 * c.reference_intensity_sum + 1e-3) << what;
       EXPECT_NEAR(g.live_intensity_sum, c.live_intensity_sum, 1e-5 * c.live_intensity_sum + 1e-3) << what;
       EXPECT_NEAR(g.reference_intensity_sum, cpu.reference_intensity_sum, 1e-5 * cpu.reference_intensity_sum + 1e-3);
       if (s.w >= 160) {
-        EXPECT_GT(c.live_intensity_sum, 0.5 * cpu.rgb[28] * 50) << what << ": no intensity summed";
+        // Reference and live frame are lit alike: the measured gain is about 1.
+        EXPECT_NEAR(c.reference_intensity_sum / c.live_intensity_sum, 1.0, 0.05) << what;
         EXPECT_GT(std::abs(c.rgb[27] - cpu.rgb[27]), 1e-3 * cpu.rgb[27]) << what << ": the gain changed nothing";
       }
     }
@@ -301,13 +301,9 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     {
       slam::TrackerParams outline = params;
       outline.outline_photometric = true;
-      tracker_->set_params(outline);
-      const slam::LinearSystemSums g = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
+      const auto [g, c] = gpu_and_cpu(outline);
       const PixelRect inner{s.w / 4, s.h / 3, s.w / 4 + (s.w + 1) / 2, s.h / 3 + (s.h + 1) / 2};
-      const slam::LinearSystemSums g_rect = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, inner);
-      tracker_->set_params(params);
-      const slam::LinearSystemSums c = ref::compute_sums(live_host, reference_host, T, outline);
-      const slam::LinearSystemSums c_rect = ref::compute_sums(live_host, reference_host, T, outline, inner);
+      const auto [g_rect, c_rect] = gpu_and_cpu(outline, inner);
       expect_sums_near(g.icp, c.icp, 2e-3, what + " outline icp");
       expect_sums_near(g.rgb, c.rgb, 2e-3, what + " outline rgb");
       expect_sums_near(g_rect.rgb, c_rect.rgb, 2e-3, what + " outline rect rgb");
@@ -318,10 +314,7 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       // With no margin, model pixels a little behind the live surface (the pose is 1 cm off) count
       // as occluded: fewer outline residuals, GPU and CPU alike (the live depth is read).
       outline.outline_occlusion_margin_m = 0.0;
-      tracker_->set_params(outline);
-      const slam::LinearSystemSums g_tight = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
-      tracker_->set_params(params);
-      const slam::LinearSystemSums c_tight = ref::compute_sums(live_host, reference_host, T, outline);
+      const auto [g_tight, c_tight] = gpu_and_cpu(outline);
       expect_sums_near(g_tight.rgb, c_tight.rgb, 2e-3, what + " outline occlusion rgb");
       if (s.w >= 160) {
         EXPECT_LT(c_tight.rgb[28], c.rgb[28] - 10) << what << ": the occlusion test removed nothing";
@@ -728,7 +721,7 @@ TEST_F(Tracking, ExposureChangeIsCompensated) {
   EXPECT_LT(e.rotation_deg, 0.1);
   const auto [r_off, e_off] = track_with(false);
   EXPECT_EQ(r_off.live_intensity_gain, 1.0);
-  EXPECT_TRUE(r_off.failed || e_off.translation_m > 2 * e.translation_m) << describe(r_off);
+  EXPECT_TRUE(r_off.failed || e_off.translation_m > 0.005) << describe(r_off);  // measured: 21 mm
 }
 
 TEST_F(Tracking, MismatchedInputsThrow) {
