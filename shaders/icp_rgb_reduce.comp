@@ -150,6 +150,14 @@ void main() {
       const uint j = (p.rect_y0 + ri / p.rect_width) * p.width + p.rect_x0 + ri % p.rect_width;  // reference pixel
       const vec4 v_ref = texel_vec4(ref_vertex, j);
       if (v_ref.w <= 0.0) continue;
+      // The prediction's rim (a model pixel with a 4-neighbour the model does not cover) is left
+      // out: splatted discs overhang the object's silhouette there, so the rim carries the
+      // object's colour where the object is not, and pulled the model back (docs/experiments.md).
+      const int ju = int(j % p.width), jv = int(j / p.width);
+      if (ju == 0 || jv == 0 || ju == w - 1 || jv == h - 1 || texel_vec4(ref_vertex, j - 1u).w <= 0.0 ||
+          texel_vec4(ref_vertex, j + 1u).w <= 0.0 || texel_vec4(ref_vertex, j - p.width).w <= 0.0 ||
+          texel_vec4(ref_vertex, j + p.width).w <= 0.0)
+        continue;
       const vec3 x_live = Rt * v_ref.xyz + t_inv;
       if (x_live.z <= 0.0) continue;
       const float u = p.fx * x_live.x / x_live.z + p.cx, v = p.fy * x_live.y / x_live.z + p.cy;

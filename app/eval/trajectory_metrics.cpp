@@ -397,6 +397,13 @@ ObjectTrajectoryErrors compute_object_trajectory_errors(const Trajectory& gt_obj
   // Drift since the first matched time, in the world.
   const Pose W = params.T_gt_est_world.value_or(A);
   out.drift_in_given_world = params.T_gt_est_world.has_value();
+  // In a given world the tracked point is the object's own origin at the first matched time,
+  // carried by the model's motion from there (no per-object fit: a fitted point absorbs part of
+  // a symmetric object's unobservable turn, or adds a turn's lever arm where the fit is off).
+  if (out.drift_in_given_world) {
+    const Eigen::Vector3d q0 = T_est[0]->inverse() * (W.inverse() * g[0]);
+    for (std::size_t k = 0; k < n; ++k) carried[k] = *T_est[k] * q0;
+  }
   const Eigen::Vector3d error0 = W * carried[0] - g[0];
   const Eigen::Matrix3d R_est0 = T_est[0]->linear(), R_gt0 = gt[matches.front().first].T_world_x.linear();
   std::vector<double> drift_m, drift_deg;

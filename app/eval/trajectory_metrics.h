@@ -113,9 +113,13 @@ struct ObjectTrajectoryErrors {
   //    translation part ((I - R) * offset otherwise).
   ErrorStats relative_translation_m;
   ErrorStats relative_rotation_deg;
-  // 4. Drift since the first matched time t0, in the world, with a world alignment W and (2)'s
-  //    point q: translation |e(t) - e(t0)| of the tracked point's error e(t) = W T_world_model(t) q
-  //    - g(t); rotation, the angle between the world-frame rotations since t0, W R_model(t)
+  // 4. Drift since the first matched time t0, in the world, with a world alignment W and a point
+  //    q: translation |e(t) - e(t0)| of the tracked point's error e(t) = W T_world_model(t) q
+  //    - g(t). With W given, q is the object's own origin at t0 (q = (W T_world_model(t0))^-1
+  //    g(t0), e(t0) = 0): how far the model's motion since t0 carries the object's centre from
+  //    where its true motion does, with no per-object fit (a can's unobservable turn about its
+  //    axis leaves its centre in place; a fitted q off the axis turned it into centimetres of
+  //    drift). Without W, (2)'s q. Rotation, the angle between the world-frame rotations since t0, W R_model(t)
   //    R_model(t0)^T W^T against R_object(t) R_object(t0)^T (independent of the body offset). (2)
   //    aligns the whole trajectory, so a model that slipped once and then rested long is mostly
   //    absorbed there; here the slip stays in every later frame. W is the given world alignment

@@ -157,9 +157,9 @@ struct LifecycleParams {
   bool object_outline_photometric = true;
   // Object models' Gauss-Newton iterations per level (TrackerParams::iterations_per_level; the
   // background's default is {1, 4, 6, 10}). Objects are small, so their iterations are cheap (3 ms
-  // at full resolution), and they need them: with the background's, table_placement's can was lost
-  // and the ball spawned twice.
-  std::vector<int> object_iterations_per_level = {2, 4, 6, 10};
+  // at full resolution), and they need them: with fewer, each frame stops short of the optimum and
+  // the shortfall builds up as drift while an object moves (docs/experiments.md, "Objects that lag behind their motion").
+  std::vector<int> object_iterations_per_level = {4, 8, 12, 20};
 
   // Non-rigid movers (a walking person, a waving arm) are no rigid objects. A new object model is
   // on trial for its first rigidity_trial_frames frames; a frame counts against it when its

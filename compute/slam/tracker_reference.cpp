@@ -101,6 +101,10 @@ void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::
     for (int u = area.x0; u < area.x1; ++u) {
       const glm::vec4& v_ref4 = ref.vertex.at(u, v);
       if (!(v_ref4.w > 0)) continue;
+      // The prediction's rim is left out (splats overhang the silhouette there).
+      if (u == 0 || v == 0 || u == w - 1 || v == h - 1 || !(ref.vertex.at(u - 1, v).w > 0) ||
+          !(ref.vertex.at(u + 1, v).w > 0) || !(ref.vertex.at(u, v - 1).w > 0) || !(ref.vertex.at(u, v + 1).w > 0))
+        continue;
       const Eigen::Vector3d v_ref = xyz(v_ref4);
       const Eigen::Vector3d x_live = Rt * v_ref + t_inv;
       if (!(x_live.z() > 0)) continue;

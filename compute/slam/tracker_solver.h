@@ -49,7 +49,10 @@ struct TrackerParams {
   // there; from the model's side it does. An object whose pixels only constrain some directions
   // (one striped face sliding along its stripes) is held by its outline in the others. The live
   // frame's gradients are needed (as for esm_gradient). CoFusion turns it on for object models
-  // (LifecycleParams::object_outline_photometric).
+  // (LifecycleParams::object_outline_photometric). The prediction's rim (model pixels with a
+  // 4-neighbour the model does not cover) is left out: splatted discs overhang the silhouette, so
+  // the rim shows the object's colour where the live image shows what lies beside it, and it held
+  // moving objects back (docs/experiments.md).
   bool outline_photometric = false;
   // Outline term: a model pixel where the live depth is nearer than the model point by more than
   // this is occluded (another object in front) and left out.

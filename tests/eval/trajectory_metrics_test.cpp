@@ -375,6 +375,28 @@ TEST(ObjectTrajectory, DriftInTheGivenWorldAlignment) {
   EXPECT_LT(r.drift_translation_m.min, 1e-3);  // before the slip: only the fitted point q's bias
 }
 
+// A can turns about its own axis, which its model cannot see (a symmetric object): the model's
+// rotation drifts by the turn, but the object's centre, carried by the model's motion from the
+// first frame, stays where the object's true motion puts it, so in a given world the translation
+// drift is zero (issue 23: drift of the object's centre, no per-object fit).
+TEST(ObjectTrajectory, UnobservableTurnAboutTheCentreIsNoTranslationDrift) {
+  Trajectory gt;
+  for (int i = 0; i < 60; ++i) gt.push_back({i / 30.0, make_pose(0.2, 0.1, 0.01 * i, Eigen::Vector3d(0.01 * i, 0.3, 0.9))});
+  const Pose A = make_pose(0.4, -0.2, 0.7, Eigen::Vector3d(0.1, 0.2, -0.3));
+  const Pose X = make_pose(-0.3, 0.5, 0.2, Eigen::Vector3d(0.03, -0.05, 0.02));
+  Trajectory est = gt;
+  for (std::size_t i = 0; i < est.size(); ++i) {
+    Pose spin = Pose::Identity();  // about the object's own z axis, through its origin
+    spin.linear() = Eigen::AngleAxisd(0.01 * double(i), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    est[i].T_world_x = A.inverse() * gt[i].T_world_x * spin * X;
+  }
+  ObjectTrajectoryParams params;
+  params.T_gt_est_world = A;
+  const auto r = compute_object_trajectory_errors(gt, est, params);
+  EXPECT_LT(r.drift_translation_m.max, 1e-9);
+  EXPECT_NEAR(r.drift_rotation_deg.max, 0.59 * 180 / std::numbers::pi, 1e-3);
+}
+
 TEST(ObjectTrajectory, RelativeMotionSeesTranslationNoise) {
   const Trajectory gt = wobbly_trajectory(100, 30);
   Trajectory est = gt;

@@ -103,9 +103,13 @@ std::set<int> object_model_ids(const SceneRun& r) {
 // The multi-object issue's bounds on a generated scene: camera ATE <= 1 cm; every moving object
 // discovered (a model covering it with IoU >= 0.5) within 10 frames of the first frame in which it
 // covers the spawn threshold and its motion has told it apart from every other body (separable_from); no other
-// object model lives more than 10 frames; tracked-point ATE <= 1 cm per object; mean per-label IoU
-// >= 0.8 over the frames after each label's discovery allowance.
-void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun& r) {
+// object model lives more than 10 frames; tracked-point ATE <= 1 cm per object; drift of each
+// object's centre since its discovery (issue 23: no per-object fit, in the cameras' alignment) at
+// most max_drift_m RMSE; mean per-label IoU >= 0.8 over the frames after each label's discovery
+// allowance. Measured drift (2026-11-24, one run each): 1.2-5.3 mm RMSE on every scene's objects
+// but five_objects' objects 4 and 5 (15 and 32 mm); 8 mm leaves room for run-to-run differences.
+constexpr double kMaxDriftM = 0.008;
+void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun& r, double max_drift_m = kMaxDriftM) {
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
 
   // Camera.
@@ -169,8 +173,17 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
     ASSERT_GE(est.size(), 8u) << "model " << id;
     EXPECT_GE(3 * tracked_in_view, 2 * in_view) << "model " << id << " tracked in " << tracked_in_view << " of "
                                                 << in_view << " frames in which object " << k << " is in view";
-    const auto errors = eval::compute_object_trajectory_errors(seq.object_trajectory(k), est);
+    // Drift since discovery, in the world alignment of the camera trajectories (as `eval objects`).
+    eval::ObjectTrajectoryParams drift_params;
+    drift_params.T_gt_est_world = eval::align_by_poses(seq.camera_trajectory(), r.camera);
+    const auto errors = eval::compute_object_trajectory_errors(seq.object_trajectory(k), est, drift_params);
     ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_ate_m", std::to_string(errors.tracked_point_m.rmse));
+    ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_drift_m",
+                                    std::to_string(errors.drift_translation_m.rmse));
+    std::printf("  object %d (model %d): tracked point %.1f mm RMSE, drift %.1f mm RMSE (max %.1f), %.1f deg RMSE\n", k,
+                id, 1e3 * errors.tracked_point_m.rmse, 1e3 * errors.drift_translation_m.rmse,
+                1e3 * errors.drift_translation_m.max, errors.drift_rotation_deg.rmse);
+    EXPECT_LE(errors.drift_translation_m.rmse, max_drift_m) << "object " << k << " (model " << id << ")";
     EXPECT_LE(errors.tracked_point_m.rmse, 0.01) << "object " << k << " (model " << id << ")";
   }
 
@@ -217,9 +230,13 @@ TEST_F(CoFusionScenes, HandoverSplitsTheArmsFromTheCubeSlow) {
 
 // Five objects picked up one after another, each next to others already moving the same way: the
 // benchmark's 6-model scene under the same bounds.
+//
+// Objects 4 and 5 still drift (issue 23, open): object 4's model falls behind by about 1 mm a
+// frame while it is carried (27 mm at the end), object 5's slips by 3 cm at frames 40-41, where its
+// motion reverses at once (from lifting to carrying down: 1.8 cm from the constant-velocity guess).
 TEST_F(CoFusionScenes, FiveObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("five_objects"));
-  expect_issue_bounds(seq, run(seq));
+  expect_issue_bounds(seq, run(seq), 0.045);
 }
 
 // A box pushed over the table slides along its own faces: little point-to-plane residual, so it
