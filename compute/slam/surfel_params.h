@@ -43,6 +43,17 @@ struct FusionParams {
   float free_space_margin_rel = 0.06f;
   // ... and loses this much confidence per such observation (removed at zero).
   float free_space_penalty = 1.0f;
+  // Duplicate surfels are merged after each fusion (surfel_merge_select/claim, applied in the
+  // cleanup): a surfel merges into a more confident one found within merge_window_cells cells of
+  // its projection in the fusion's index map (half-size of the square searched; cells are 1 /
+  // index_map_scale pixels) ...
+  int merge_window_cells = 2;
+  // ... that lies within this fraction of the larger of the two radii (m per m; 0 switches
+  // merging off). New surfels fill the gaps between the surfels of a surface seen from a new
+  // angle; without merging they pile up, about 1.2M surfels on TUM fr1/rpy's first 200 frames.
+  float merge_distance_rel = 0.5f;
+  // ... and whose normal is within this angle (degrees).
+  float merge_max_normal_angle_deg = 35.0f;
   // Initial capacity of a model's surfel buffer; it doubles when full.
   unsigned initial_capacity = 1u << 19;
   // Most surfels a model keeps after a fusion (0: no cap of its own). The device sets a limit too:
