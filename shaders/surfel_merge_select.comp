@@ -23,6 +23,7 @@ bool cell_fused(int x, int y) {
 
 uint merge_target(uint i) {
   const vec4 pos_i = surfel_position_confidence(surfels, i);
+  if (!(pos_i.w < p.max_source_confidence)) return MERGE_NONE;
   const vec4 nrm_i = surfel_normal_radius(surfels, i);
   const vec3 pc = rigid_apply(p.T_camera_model, pos_i.xyz);
   if (pc.z <= 1e-3) return MERGE_NONE;
@@ -31,13 +32,14 @@ uint merge_target(uint i) {
   const float reach = float(p.window_cells) + 1.0;
   if (!(u > -reach && v > -reach && u < float(grid_width) + reach && v < float(grid_height) + reach)) return MERGE_NONE;
   const int cx = int(floor(u)), cy = int(floor(v)), R = int(p.window_cells);
-  uint best = MERGE_NONE;
+  uint best = MERGE_NONE, last = MERGE_NONE;  // last: the previous cell's surfel (mostly the same)
   float best_d2 = 1e30;
   for (int y = max(cy - R, 0); y <= min(cy + R, int(grid_height) - 1); ++y) {
     for (int x = max(cx - R, 0); x <= min(cx + R, int(grid_width) - 1); ++x) {
       if (!cell_fused(x, y)) continue;
       const uint j = texel_uint(index_map, 2u * (uint(y) * grid_width + uint(x)));
-      if (j == 0xFFFFFFFFu || j == i) continue;
+      if (j == 0xFFFFFFFFu || j == i || j == last) continue;
+      last = j;
       const vec4 pos_j = surfel_position_confidence(surfels, j);
       if (!(pos_j.w > pos_i.w || (pos_j.w == pos_i.w && j < i))) continue;  // j must be the one kept
       const vec4 nrm_j = surfel_normal_radius(surfels, j);

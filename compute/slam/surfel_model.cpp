@@ -272,6 +272,7 @@ L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, cons
   mp.distance_rel = params.merge_distance_rel;
   mp.min_normal_dot = float(std::cos(params.merge_max_normal_angle_deg * M_PI / 180.0));
   mp.use_labels = fp.use_labels, mp.label = fp.label;
+  mp.max_source_confidence = params.merge_max_source_confidence;
   return mp;
 }
 
@@ -371,6 +372,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   fp.label = label;
   fp.rect_x0 = uint32_t(area.x0), fp.rect_y0 = uint32_t(area.y0), fp.rect_x1 = uint32_t(area.x1),
   fp.rect_y1 = uint32_t(area.y1);
+  fp.new_surfel_clearance_cells = uint32_t(std::max(params.new_surfel_clearance_cells, 0));
 
   L::CleanupParams cp{};
   std::copy(T, T + 12, cp.T_camera_model);

@@ -121,6 +121,24 @@ PredictedMaps subsample(const PredictedMaps& src) {
   return d;
 }
 
+namespace {
+bool depth_agrees_around(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map, uint32_t px,
+                         uint32_t py, float z_live, const gpu_layout::FuseParams& p) {
+  const int S = int(p.grid_scale), c = int(p.new_surfel_clearance_cells);
+  const int grid_width = int(p.width) * S, grid_height = int(p.height) * S;
+  const int x0 = int(px) * S, y0 = int(py) * S;
+  for (int y = std::max(y0 - c, 0); y <= std::min(y0 + S - 1 + c, grid_height - 1); ++y)
+    for (int x = std::max(x0 - c, 0); x <= std::min(x0 + S - 1 + c, grid_width - 1); ++x) {
+      if (x >= x0 && x < x0 + S && y >= y0 && y < y0 + S) continue;
+      const uint64_t key = index_map[size_t(y) * size_t(grid_width) + size_t(x)];
+      if (key == kEmpty) continue;
+      const float z = apply(p.T_camera_model, position(surfels[uint32_t(key & 0xFFFFFFFFu)])).z;
+      if (std::abs(z - z_live) <= p.max_depth_diff_rel * z_live + 0.005f) return true;
+    }
+  return false;
+}
+}  // namespace
+
 Association associate(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map, const LiveMaps& live,
                       const gpu_layout::FuseParams& p) {
   Association a{std::vector<uint32_t>(size_t(p.width) * p.height, FUSE_SKIP_PIXEL),
@@ -152,6 +170,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
             best_ray_dist = ray_dist;
           }
         }
+      if (best == FUSE_NO_SURFEL && !depth_agrees) depth_agrees = depth_agrees_around(surfels, index_map, x, y, v.z, p);
       a.assoc[i] = (best == FUSE_NO_SURFEL && depth_agrees) ? FUSE_SKIP_PIXEL : best;
       if (best != FUSE_NO_SURFEL) a.claim[best] = std::min(a.claim[best], i);
     }
@@ -212,6 +231,7 @@ bool cell_fused(int x, int y, const std::vector<uint32_t>& labels, const gpu_lay
 uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map,
                       const std::vector<uint32_t>& labels, uint32_t i, const gpu_layout::MergeParams& p) {
   const Surfel& si = surfels[i];
+  if (!(si.confidence < p.max_source_confidence)) return MERGE_NONE;
   const vec3 pc = apply(p.T_camera_model, position(si));
   if (pc.z <= 1e-3f) return MERGE_NONE;
   const uint32_t S = p.grid_scale, grid_width = p.width * S, grid_height = p.height * S;
@@ -219,13 +239,14 @@ uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint
   const float reach = float(p.window_cells) + 1.0f;
   if (!(u > -reach && v > -reach && u < float(grid_width) + reach && v < float(grid_height) + reach)) return MERGE_NONE;
   const int cx = int(std::floor(u)), cy = int(std::floor(v)), R = int(p.window_cells);
-  uint32_t best = MERGE_NONE;
+  uint32_t best = MERGE_NONE, last = MERGE_NONE;  // last: the previous cell's surfel (mostly the same)
   float best_d2 = 1e30f;
   for (int y = std::max(cy - R, 0); y <= std::min(cy + R, int(grid_height) - 1); ++y)
     for (int x = std::max(cx - R, 0); x <= std::min(cx + R, int(grid_width) - 1); ++x) {
       if (!cell_fused(x, y, labels, p)) continue;
       const uint32_t j = uint32_t(index_map[size_t(y) * grid_width + size_t(x)] & 0xFFFFFFFFu);
-      if (j == 0xFFFFFFFFu || j == i) continue;
+      if (j == 0xFFFFFFFFu || j == i || j == last) continue;
+      last = j;
       const Surfel& sj = surfels[j];
       if (!(sj.confidence > si.confidence || (sj.confidence == si.confidence && j < i))) continue;
       const vec3 d = position(sj) - position(si);
@@ -265,7 +286,7 @@ Surfel merge_surfels(const Surfel& kept, const Surfel& merged) {
   s.nx = nrm.x, s.ny = nrm.y, s.nz = nrm.z;
   s.colour_rgba8 = pack_rgb(col);
   s.radius_m = (ca * kept.radius_m + cb * merged.radius_m) * w;
-  s.confidence = ca + cb;
+  s.confidence = std::max(ca, cb);
   s.created_frame = std::min(kept.created_frame, merged.created_frame);
   s.last_seen_frame = std::max(kept.last_seen_frame, merged.last_seen_frame);
   return s;

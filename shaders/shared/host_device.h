@@ -172,6 +172,9 @@ struct FuseParams {
   // Only live pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are associated and fused (a
   // model's labelled pixels); association entries and index-map rows outside are not touched.
   uint rect_x0, rect_y0, rect_x1, rect_y1;
+  // A pixel that no surfel of its block explains spawns a new surfel only when no surfel within
+  // this many cells around the block agrees in depth either (0: the block alone decides).
+  uint new_surfel_clearance_cells;
 };
 
 // ---- surfel_cleanup.comp: drop unstable / free-space-violating surfels, compact the rest ----
@@ -228,6 +231,7 @@ struct MergeParams {
   float min_normal_dot;       // ... and dot(n_i, n_j) >= min_normal_dot
   uint use_labels;
   uint label;
+  float max_source_confidence;  // only surfels below this confidence look for a target
 };
 
 // ---- surfel_remove_region.comp: remove the surfels that a labelled live region covers ----------

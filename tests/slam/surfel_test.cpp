@@ -312,6 +312,7 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       fp.grid_scale = 4, fp.surfel_count = uint32_t(surfels.size()), fp.capacity = capacity, fp.frame = 101;
       fp.max_depth_diff_rel = 0.03f, fp.min_normal_dot = std::cos(20.0f * float(M_PI) / 180.0f);
       fp.max_radius_growth = 1.5f, fp.use_labels = use_labels, fp.label = 1;
+      fp.new_surfel_clearance_cells = variant == 1 ? 0u : 1u;
       fp.rect_x0 = uint32_t(rect.x0), fp.rect_y0 = uint32_t(rect.y0), fp.rect_x1 = uint32_t(rect.x1),
       fp.rect_y1 = uint32_t(rect.y1);
 
@@ -452,6 +453,7 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       mp.rect_x0 = uint32_t(rect.x0), mp.rect_y0 = uint32_t(rect.y0), mp.rect_x1 = uint32_t(rect.x1),
       mp.rect_y1 = uint32_t(rect.y1);
       mp.window_cells = 2, mp.distance_rel = 0.5f, mp.min_normal_dot = std::cos(35.0f * float(M_PI) / 180.0f);
+      mp.max_source_confidence = 8.0f;
       mp.use_labels = uint32_t(variant), mp.label = 1;
       const size_t slots = std::max<size_t>(n, 4);
       slam::SurfelPipelines::MergeBuffers b{upload(surfels.empty() ? std::vector<Surfel>(1) : surfels, "surfels"),
