@@ -18,12 +18,29 @@ layout(std430, binding = FUSE_BINDING_CLAIM) buffer Claim { uint claim[]; };
 layout(std430, binding = FUSE_BINDING_COUNTER) buffer Counter { uint counter[]; };
 layout(binding = FUSE_BINDING_LABELS) uniform usamplerBuffer labels;  // texel view of uint
 layout(push_constant) uniform Push { FuseParams p; };
+// Whether a surfel in the ring of new_surfel_clearance_cells cells around pixel px's block of the
+// index map lies within the association's depth tolerance of z_live.
+bool depth_agrees_around(uvec2 px, float z_live) {
+  const int S = int(p.grid_scale), c = int(p.new_surfel_clearance_cells);
+  const int grid_width = int(p.width) * S, grid_height = int(p.height) * S;
+  const int x0 = int(px.x) * S, y0 = int(px.y) * S;
+  for (int y = max(y0 - c, 0); y <= min(y0 + S - 1 + c, grid_height - 1); ++y) {
+    for (int x = max(x0 - c, 0); x <= min(x0 + S - 1 + c, grid_width - 1); ++x) {
+      if (x >= x0 && x < x0 + S && y >= y0 && y < y0 + S) continue;  // the block itself
+      const uint si = texel_uint(index_map, 2u * uint(y * grid_width + x));
+      if (si == 0xFFFFFFFFu) continue;
+      const float z = rigid_apply(p.T_camera_model, surfel_position_confidence(surfels, si).xyz).z;
+      if (abs(z - z_live) <= p.max_depth_diff_rel * z_live + 0.005) return true;
+    }
+  }
+  return false;
+}
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
   if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
   vec4 v = texel_vec4(vertex, i), n = texel_vec4(normal, i);
-  if (v.w == 0.0 || n.w == 0.0 || (p.use_labels != 0u && texel_uint(labels, i) != p.label)) {
+  if (v.w == 0.0 || n.w == 0.0 || (p.label != FUSE_ALL_LABELS && texel_uint(labels, i) != p.label)) {
     assoc[i] = FUSE_SKIP_PIXEL;
     return;
   }
@@ -61,7 +78,9 @@ void main() {
     }
   }
   // A pixel on a known surface whose normal disagrees (sensor noise) neither updates it nor
-  // spawns a duplicate; new surfels come only from surface not yet in the model.
+  // spawns a duplicate; new surfels come only from surface not yet in the model, nor near a
+  // surfel of it (a gap between known surfels is no new surface).
+  if (best == FUSE_NO_SURFEL && !depth_agrees) depth_agrees = depth_agrees_around(px, v.z);
   assoc[i] = (best == FUSE_NO_SURFEL && depth_agrees) ? FUSE_SKIP_PIXEL : best;
   if (best != FUSE_NO_SURFEL) atomicMin(claim[best], i);
 }

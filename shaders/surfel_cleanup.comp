@@ -2,16 +2,21 @@
 // Keeps the surfels worth keeping and compacts them into the other buffer (atomic append):
 // unstable surfels (confidence below stable_confidence) not confirmed within the window go;
 // surfels the live depth shows to be in free space (well in front of the observed surface) lose
-// confidence and go once it reaches zero, so stale geometry of moved objects disappears.
+// confidence and go once it reaches zero, so stale geometry of moved objects disappears. With
+// p.merge, the merges surfel_merge_select/claim chose are applied first: the source is dropped,
+// its target absorbs it (shared/surfel_merge.glsl).
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
 #include "shared/texel_access.glsl"
+#include "shared/surfel_merge.glsl"
 layout(local_size_x = 128) in;
 layout(binding = CLEANUP_BINDING_SRC) uniform usamplerBuffer src;  // texel view
 layout(std430, binding = CLEANUP_BINDING_DST) writeonly buffer Dst { Surfel dst[]; };
 layout(binding = CLEANUP_BINDING_DEPTH) uniform usamplerBuffer depth_m;  // texel view of float metres
 layout(std430, binding = CLEANUP_BINDING_COUNTER) buffer Counter { uint counter[]; };
+layout(binding = CLEANUP_BINDING_MERGE_TARGET) uniform usamplerBuffer merge_target;  // texel view of uint
+layout(binding = CLEANUP_BINDING_MERGE_CLAIM) uniform usamplerBuffer merge_claim;    // texel view of uint
 layout(push_constant) uniform Push { CleanupParams p; };
 void main() {
   // The count after fusion's appends lives on the GPU (counter[0]); surfel_count bounds the
@@ -19,6 +24,12 @@ void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= min(p.surfel_count, counter[0])) return;
   Surfel s = surfel_at(src, i);
+  if (p.merge != 0u) {
+    const uint t = texel_uint(merge_target, i);
+    if (t != MERGE_NONE && texel_uint(merge_target, t) == MERGE_NONE && texel_uint(merge_claim, t) == i) return;
+    const uint c = texel_uint(merge_claim, i);
+    if (c != MERGE_NONE) s = merge_surfels(s, surfel_at(src, c));
+  }
   if (s.confidence < p.stable_confidence && p.frame - s.created_frame > p.unstable_window_frames) return;
   vec3 pc = rigid_apply(p.T_camera_model, vec3(s.px, s.py, s.pz));
   if (pc.z > 1e-3) {

@@ -44,6 +44,8 @@ struct BenchOptions {
   std::string semantic_input = "synthetic:table_placement";
   bool semantic = true;
   std::string json_file;  // --json: every figure, machine-readable; empty = none
+  std::string config_file;  // --config: pipeline parameters as for `cofusion run` (empty: defaults)
+  PipelineConfig config;
   // --soak N: only the soak run (bench_soak.h), N frames; its report goes to json_file when set.
   SoakOptions soak{.frames = 0};
 };
@@ -133,11 +135,12 @@ OdometryPeerFigure print_peer(const std::vector<Frame>& frames, Json& json) {
 // The whole pipeline (upload, preprocess, predict, track, fuse) over frames held in memory, so
 // that reading and decoding files is not timed. The first frames (model start-up, pipeline
 // compilation) are not counted.
-Json bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const std::string& label) {
+Json bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const std::string& label,
+                    const PipelineConfig& config) {
   if (frames.size() < 4) throw Error("bench: need at least 4 frames of input for the pipeline figures");
   const Intrinsics k = frames[0].intrinsics;
   Json json = {{"label", label}, {"width", k.width}, {"height", k.height}, {"frames", frames.size()}};
-  slam::DenseSlam slam(ctx, k, slam::SlamParams{});
+  slam::DenseSlam slam(ctx, k, config.slam);
   StageTimes times;
   KernelTimes kernel_times;
   const size_t skip = 2;
@@ -187,10 +190,10 @@ std::vector<Frame> read_frames(const std::string& input, int max_frames) {
 // frame is timed and grouped by the number of models tracked in it, so the figures read as "fps
 // with N models". Superpixels run on the CPU job system while the GPU tracks; the overlap column
 // says how much of that time was hidden behind GPU work.
-Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames) {
+Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, const PipelineConfig& config) {
   const std::vector<Frame> frames = read_frames(input, max_frames);
   const Intrinsics k = frames[0].intrinsics;
-  slam::CoFusion slam(ctx, k, PipelineConfig{}.cofusion());
+  slam::CoFusion slam(ctx, k, config.cofusion());
   std::map<size_t, StageTimes> by_models;
   std::map<size_t, KernelTimes> kernels_by_models;
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -376,11 +379,15 @@ void add_bench(CLI::App& app) {
   cmd->add_flag("!--no-semantic", options->semantic, "Skip the per-segmentation-mode figures");
   cmd->add_flag("--kernel-profile", options->kernel_profile,
                 "Also print GPU time per kernel for the pipeline and multi-object figures (timestamp queries)");
+  cmd->add_option("--config", options->config_file,
+                  "Pipeline and multi-object figures with these parameters (JSON, as for run; default: the defaults)")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--json", options->json_file,
                   "Also write every figure (ms, fps, ratio to OpenCV's odometry; with --soak, the soak report) to this JSON file");
   add_soak_options(*cmd, options->soak);
   cmd->callback([options] {
     if (handle_list_devices(options->gpu)) return;
+    if (!options->config_file.empty()) options->config = load_config(options->config_file);
     const std::filesystem::path json_file = options->json_file;
     if (!json_file.empty()) ensure_writable_directory(json_file.has_parent_path() ? json_file.parent_path() : ".");
     gpu::Context ctx(options->gpu.context_options());
@@ -416,13 +423,13 @@ void add_bench(CLI::App& app) {
       }
       json["pipeline"] = Json::array();
       for (auto [frames, label] : {std::pair{&full, "full resolution"}, std::pair{&half, "half resolution"}}) {
-        json["pipeline"].push_back(bench_pipeline(ctx, *frames, label));
+        json["pipeline"].push_back(bench_pipeline(ctx, *frames, label, options->config));
         json["pipeline"].back()["input"] = options->input;
       }
     }
     if (options->models) {
       json["models"] = Json::array();
-      for (const auto& input : options->model_inputs) json["models"].push_back(bench_models(ctx, input, options->frames));
+      for (const auto& input : options->model_inputs) json["models"].push_back(bench_models(ctx, input, options->frames, options->config));
     }
     if (options->semantic) json["semantic"] = bench_semantic(ctx, options->semantic_input, options->frames);
     if (ctx.validation_error_count() > 0) throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors");

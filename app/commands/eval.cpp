@@ -3,6 +3,7 @@
 //   cofusion eval seg --gt-masks DIR --est-masks DIR               per-label IoU per frame
 //   cofusion eval recon --model model.ply --gt scene.glb           surfel-to-mesh distances
 //   cofusion eval objects --gt-dir DIR --est-dir DIR               ATE of every object model
+//   cofusion eval map --model model.ply                            duplicate and unconfirmed surfels
 // Every form prints "key value" lines, or one JSON object with --json. The metrics live in
 // app/eval (see report.h); this file only wires options to them.
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include "common/error.h"
 #include "eval/drift_plot.h"
 #include "eval/report.h"
+#include "eval/surfel_map_metrics.h"
 
 namespace cofusion::commands {
 namespace {
@@ -95,6 +97,30 @@ void run_recon(const ReconOptions& o) {
   print(eval::to_json(result), eval::to_text(result), o.json);
 }
 
+struct MapOptions {
+  std::vector<std::string> models;
+  eval::DuplicateParams params;
+  bool json = false;
+};
+
+void run_map(const MapOptions& o) {
+  nlohmann::json j = nlohmann::json::array();
+  std::string text;
+  for (const auto& path : o.models) {
+    const auto stats = eval::compute_surfel_map_stats(eval::read_ply_surfels(path), o.params);
+    j.push_back({{"model", path},
+                 {"surfels", stats.surfels},
+                 {"duplicates", stats.duplicates},
+                 {"duplicate_share", stats.duplicate_share},
+                 {"low_confidence_share", stats.low_confidence_share}});
+    char line[512];
+    std::snprintf(line, sizeof line, "model %s\nsurfels %zu\nduplicate_share %.4f\nlow_confidence_share %.4f\n",
+                  path.c_str(), stats.surfels, stats.duplicate_share, stats.low_confidence_share);
+    text += line;
+  }
+  print(o.models.size() == 1 ? j[0] : j, text, o.json);
+}
+
 void run_objects(const ObjectOptions& o) {
   std::optional<std::map<int, int>> mapping;
   if (!o.map.empty()) {
@@ -121,7 +147,7 @@ void run_objects(const ObjectOptions& o) {
 void add_eval(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "eval", "Evaluate results against ground truth: camera trajectory (ATE, RPE as the TUM benchmark scripts), or a "
-              "subcommand: seg, recon, objects");
+              "subcommand: seg, recon, objects, map");
   cmd->require_subcommand(0, 1);
 
   auto traj = std::make_shared<TrajectoryOptions>();
@@ -181,6 +207,21 @@ void add_eval(CLI::App& app) {
   objects_cmd->add_option("--plot", objects->plot_dir,
                           "Write DIR/drift-model-<id>.png: each model's drift since first seen against time");
   objects_cmd->callback([objects] { run_objects(*objects); });
+
+  auto map = std::make_shared<MapOptions>();
+  auto* map_cmd = cmd->add_subcommand(
+      "map", "Redundancy of surfel models: share of surfels with another within a fraction of their radius and a "
+             "similar normal (duplicates), and share below a confidence (unconfirmed)");
+  map_cmd->add_option("--model", map->models, "Model PLY files as cofusion run writes them (models/model-<id>.ply)")
+      ->required();
+  map_cmd->add_option("--radius-fraction", map->params.radius_fraction, "Duplicate: neighbour within this fraction of the radius")
+      ->capture_default_str();
+  map_cmd->add_option("--max-normal-angle", map->params.max_normal_angle_deg, "Duplicate: normals within this angle (degrees)")
+      ->capture_default_str();
+  map_cmd->add_option("--low-confidence", map->params.low_confidence, "Unconfirmed: confidence below this")
+      ->capture_default_str();
+  map_cmd->add_flag("--json", map->json, "Print one JSON object (an array for several models)");
+  map_cmd->callback([map] { run_map(*map); });
 }
 
 }  // namespace cofusion::commands

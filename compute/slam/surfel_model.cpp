@@ -31,6 +31,7 @@ SurfelModel::SurfelModel(gpu::Context& ctx, int id, unsigned initial_capacity) :
   surfels_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(Surfel), name + " surfels");
   scratch_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(Surfel), name + " surfels (compaction)");
   claim_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(uint32_t), name + " claims");
+  merge_target_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(uint32_t), name + " merge targets");
   counter_ = gpu::Buffer::create(ctx, 4 * sizeof(uint32_t), name + " counter");
 }
 
@@ -48,10 +49,12 @@ void SurfelModel::reserve(gpu::Stream& stream, unsigned needed) {
   auto surfels = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(Surfel), name + " surfels");
   auto scratch = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(Surfel), name + " surfels (compaction)");
   auto claim = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(uint32_t), name + " claims");
+  auto merge_target = gpu::Buffer::create(ctx_, size_t{capacity} * sizeof(uint32_t), name + " merge targets");
   stream.run([&](gpu::CommandList& cmd) { cmd.copy(surfels_, surfels, size_t{count_} * sizeof(Surfel)); });
   surfels_ = std::move(surfels);
   scratch_ = std::move(scratch);
   claim_ = std::move(claim);
+  merge_target_ = std::move(merge_target);
   capacity_ = capacity;
 }
 
@@ -164,8 +167,13 @@ SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor&
       update_(ctx, "fuse_update", shaders::fuse_update_comp(), 10, sizeof(L::FuseParams),
               (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_VERTEX) | (1u << FUSE_BINDING_NORMAL) |
                   (1u << FUSE_BINDING_RGB) | (1u << FUSE_BINDING_ASSOC) | (1u << FUSE_BINDING_CLAIM)),
-      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 4, sizeof(L::CleanupParams),
-               (1u << CLEANUP_BINDING_SRC) | (1u << CLEANUP_BINDING_DEPTH)),
+      merge_select_(ctx, "surfel_merge_select", shaders::surfel_merge_select_comp(), 6, sizeof(L::MergeParams),
+                    (1u << MERGE_BINDING_SURFELS) | (1u << MERGE_BINDING_INDEX_MAP) | (1u << MERGE_BINDING_LABELS)),
+      merge_claim_(ctx, "surfel_merge_claim", shaders::surfel_merge_claim_comp(), 6, sizeof(L::MergeParams),
+                   1u << MERGE_BINDING_TARGET),
+      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 6, sizeof(L::CleanupParams),
+               (1u << CLEANUP_BINDING_SRC) | (1u << CLEANUP_BINDING_DEPTH) | (1u << CLEANUP_BINDING_MERGE_TARGET) |
+                   (1u << CLEANUP_BINDING_MERGE_CLAIM)),
       remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 5,
                      sizeof(L::RemoveRegionParams),
                      (1u << REMOVE_REGION_BINDING_SRC) | (1u << REMOVE_REGION_BINDING_DEPTH) |
@@ -251,6 +259,23 @@ void SurfelPipelines::subsample(gpu::CommandList& cmd, const kernels::FramePyram
 }
 
 namespace {
+// Merge search over the fusion's index map, in the part of the image this fusion covered (the
+// index map's rows outside its rectangle are stale).
+L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, const FusionParams& params) {
+  L::MergeParams mp{};
+  std::copy(fp.T_camera_model, fp.T_camera_model + 12, mp.T_camera_model);
+  mp.fx = fp.fx, mp.fy = fp.fy, mp.cx = fp.cx, mp.cy = fp.cy;
+  mp.width = fp.width, mp.height = fp.height, mp.grid_scale = fp.grid_scale;
+  mp.surfel_count = surfel_count;
+  mp.rect_x0 = fp.rect_x0, mp.rect_y0 = fp.rect_y0, mp.rect_x1 = fp.rect_x1, mp.rect_y1 = fp.rect_y1;
+  mp.window_cells = uint32_t(std::max(params.merge_window_cells, 0));
+  mp.distance_rel = params.merge_distance_rel;
+  mp.min_normal_dot = float(std::cos(params.merge_max_normal_angle_deg * M_PI / 180.0));
+  mp.use_labels = fp.label != FUSE_ALL_LABELS ? 1u : 0u, mp.label = fp.label;
+  mp.max_source_confidence = params.merge_max_source_confidence;
+  return mp;
+}
+
 // Workgroups covering FuseParams' pixel rectangle (0 when it is empty).
 std::pair<uint32_t, uint32_t> rect_tiles(const L::FuseParams& p) {
   const int w = int(std::min(p.rect_x1, p.width)) - int(p.rect_x0), h = int(std::min(p.rect_y1, p.height)) - int(p.rect_y0);
@@ -273,10 +298,22 @@ void SurfelPipelines::update(gpu::CommandList& cmd, const FuseBuffers& b, const 
                gx, gy);
 }
 
+void SurfelPipelines::merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p) const {
+  cmd.dispatch(merge_select_, {b.surfels, b.index_map, b.target, b.claim, b.counter, b.labels}, p,
+               group_count(p.surfel_count, 128));
+}
+
+void SurfelPipelines::merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p) const {
+  cmd.dispatch(merge_claim_, {b.surfels, b.index_map, b.target, b.claim, b.counter, b.labels}, p,
+               group_count(p.surfel_count, 128));
+}
+
 void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
-                              const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter,
-                              const L::CleanupParams& p) const {
-  cmd.dispatch(cleanup_, {src, dst, depth_m, counter}, p, group_count(p.surfel_count, 128));
+                              const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const L::CleanupParams& p,
+                              const gpu::BufferPtr& merge_target, const gpu::BufferPtr& merge_claim) const {
+  const gpu::BufferPtr& target = merge_target ? merge_target : src;  // not read without p.merge
+  const gpu::BufferPtr& claim = merge_claim ? merge_claim : src;
+  cmd.dispatch(cleanup_, {src, dst, depth_m, counter, target, claim}, p, group_count(p.surfel_count, 128));
 }
 
 void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
@@ -331,11 +368,11 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   fp.max_depth_diff_rel = params.max_depth_diff_rel;
   fp.min_normal_dot = float(std::cos(params.max_normal_angle_deg * M_PI / 180.0));
   fp.max_radius_growth = params.max_radius_growth;
-  fp.use_labels = labels ? 1u : 0u;
-  fp.label = label;
+  fp.label = labels ? label : FUSE_ALL_LABELS;
   fp.rect_x0 = uint32_t(area.x0), fp.rect_y0 = uint32_t(area.y0), fp.rect_x1 = uint32_t(area.x1),
   fp.rect_y1 = uint32_t(area.y1);
   fp.colour_gain = colour_gain;
+  fp.new_surfel_clearance_cells = uint32_t(std::max(params.new_surfel_clearance_cells, 0));
 
   L::CleanupParams cp{};
   std::copy(T, T + 12, cp.T_camera_model);
@@ -347,6 +384,9 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   cp.unstable_window_frames = params.unstable_window_frames;
   cp.free_space_margin_rel = params.free_space_margin_rel;
   cp.free_space_penalty = params.free_space_penalty;
+  const bool merge = params.merge_distance_rel > 0.0f && model.count_ > 0;
+  cp.merge = merge ? 1u : 0u;
+  const L::MergeParams mp = merge_params(fp, most_surfels, params);
 
   const gpu::BufferPtr& label_buffer = labels ? labels : model.no_labels_;
   // Association reads only the index-map rows of the rectangle's pixels and the claims of
@@ -366,7 +406,15 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
     cmd.barrier();
     update(cmd, b, fp);
     cmd.barrier();
-    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, cp);
+    if (merge) {
+      const MergeBuffers mb{model.surfels_, index_map, model.merge_target_, model.claim_, model.counter_, label_buffer};
+      cmd.fill(model.claim_, 0xFFFFFFFFu, 0, size_t(most_surfels) * 4);
+      merge_select(cmd, mb, mp);
+      cmd.barrier();
+      merge_claim(cmd, mb, mp);
+      cmd.barrier();
+    }
+    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, cp, model.merge_target_, model.claim_);
   });
   uint32_t counter[4];
   stream.download(model.counter_, counter, sizeof counter);

@@ -72,7 +72,8 @@ class SurfelModel {
   uint64_t culled_total_ = 0;
   gpu::BufferPtr surfels_;  // Surfel[capacity]
   gpu::BufferPtr scratch_;  // compaction target, swapped with surfels_ after cleanup
-  gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims
+  gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims, then the merge claims
+  gpu::BufferPtr merge_target_;  // uint[capacity]: the surfel each surfel merges into
   gpu::BufferPtr counter_;  // uint[4]
   // Per-fusion scratch, owned here (not by SurfelPipelines) so that different models can be fused
   // concurrently; allocated on the first fusion, for the live image size.
@@ -118,8 +119,8 @@ class SurfelPipelines {
                ModelPrediction& out, const PredictionParams& params, int frame,
                const std::optional<PixelRect>& rect = std::nullopt) const;
 
-  // Fuses the live frame (level 0 of `live`) into `model` seen at T_camera_model, then removes
-  // unstable and free-space surfels. Keeps the model within its capacity limit
+  // Fuses the live frame (level 0 of `live`) into `model` seen at T_camera_model, then merges
+  // duplicate surfels (FusionParams::merge_*) and removes unstable and free-space surfels. Keeps the model within its capacity limit
   // (SurfelModel::make_room: least confident surfels culled before fusion when there is no room,
   // and after cleanup when the count is over the limit). With `labels` (uint per pixel), only pixels whose label is
   // `label` are fused. With `rect` (level-0 pixels), only pixels in it are fused: with labels it
@@ -156,8 +157,16 @@ class SurfelPipelines {
                  const std::optional<PixelRect>& rect = std::nullopt) const;
   void associate(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
   void update(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
+  struct MergeBuffers {
+    gpu::BufferPtr surfels, index_map, target, claim, counter, labels;  // labels: any buffer without use_labels
+  };
+  void merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
+  void merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
+  // With p.merge, `merge_target` and `merge_claim` are merge_select's and merge_claim's results;
+  // without, they are not read (null binds `counter` in their place).
   void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, const gpu::BufferPtr& depth_m,
-               const gpu::BufferPtr& counter, const gpu_layout::CleanupParams& p) const;
+               const gpu::BufferPtr& counter, const gpu_layout::CleanupParams& p,
+               const gpu::BufferPtr& merge_target = nullptr, const gpu::BufferPtr& merge_claim = nullptr) const;
   void remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                      const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels, const gpu::BufferPtr& counter,
                      const gpu_layout::RemoveRegionParams& p) const;
@@ -169,6 +178,8 @@ class SurfelPipelines {
   gpu::ComputePipeline subsample_;
   gpu::ComputePipeline associate_;
   gpu::ComputePipeline update_;
+  gpu::ComputePipeline merge_select_;
+  gpu::ComputePipeline merge_claim_;
   gpu::ComputePipeline cleanup_;
   gpu::ComputePipeline remove_region_;
 };

@@ -121,6 +121,24 @@ PredictedMaps subsample(const PredictedMaps& src) {
   return d;
 }
 
+namespace {
+bool depth_agrees_around(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map, uint32_t px,
+                         uint32_t py, float z_live, const gpu_layout::FuseParams& p) {
+  const int S = int(p.grid_scale), c = int(p.new_surfel_clearance_cells);
+  const int grid_width = int(p.width) * S, grid_height = int(p.height) * S;
+  const int x0 = int(px) * S, y0 = int(py) * S;
+  for (int y = std::max(y0 - c, 0); y <= std::min(y0 + S - 1 + c, grid_height - 1); ++y)
+    for (int x = std::max(x0 - c, 0); x <= std::min(x0 + S - 1 + c, grid_width - 1); ++x) {
+      if (x >= x0 && x < x0 + S && y >= y0 && y < y0 + S) continue;
+      const uint64_t key = index_map[size_t(y) * size_t(grid_width) + size_t(x)];
+      if (key == kEmpty) continue;
+      const float z = apply(p.T_camera_model, position(surfels[uint32_t(key & 0xFFFFFFFFu)])).z;
+      if (std::abs(z - z_live) <= p.max_depth_diff_rel * z_live + 0.005f) return true;
+    }
+  return false;
+}
+}  // namespace
+
 Association associate(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map, const LiveMaps& live,
                       const gpu_layout::FuseParams& p) {
   Association a{std::vector<uint32_t>(size_t(p.width) * p.height, FUSE_SKIP_PIXEL),
@@ -130,7 +148,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
     for (uint32_t x = p.rect_x0; x < std::min(p.rect_x1, p.width); ++x) {
       const uint32_t i = y * p.width + x;
       const glm::vec4 v = live.vertex.pixels[i], n = live.normal.pixels[i];
-      if (v.w == 0.0f || n.w == 0.0f || (p.use_labels && live.labels[i] != p.label)) continue;
+      if (v.w == 0.0f || n.w == 0.0f || (p.label != FUSE_ALL_LABELS && live.labels[i] != p.label)) continue;
       const vec3 ray = glm::normalize(vec3(v));
       uint32_t best = FUSE_NO_SURFEL;
       float best_confidence = -1.0f, best_ray_dist = 1e30f;
@@ -152,6 +170,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
             best_ray_dist = ray_dist;
           }
         }
+      if (best == FUSE_NO_SURFEL && !depth_agrees) depth_agrees = depth_agrees_around(surfels, index_map, x, y, v.z, p);
       a.assoc[i] = (best == FUSE_NO_SURFEL && depth_agrees) ? FUSE_SKIP_PIXEL : best;
       if (best != FUSE_NO_SURFEL) a.claim[best] = std::min(a.claim[best], i);
     }
@@ -201,11 +220,89 @@ void update(std::vector<Surfel>& surfels, const Association& a, const LiveMaps& 
   surfels.insert(surfels.end(), appended.begin(), appended.end());
 }
 
+namespace {
+bool cell_fused(int x, int y, const std::vector<uint32_t>& labels, const gpu_layout::MergeParams& p) {
+  const uint32_t px = uint32_t(x) / p.grid_scale, py = uint32_t(y) / p.grid_scale;
+  if (px < p.rect_x0 || px >= std::min(p.rect_x1, p.width) || py < p.rect_y0 || py >= std::min(p.rect_y1, p.height))
+    return false;
+  return !p.use_labels || labels.at(size_t(py) * p.width + px) == p.label;
+}
+
+uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map,
+                      const std::vector<uint32_t>& labels, uint32_t i, const gpu_layout::MergeParams& p) {
+  const Surfel& si = surfels[i];
+  if (!(si.confidence < p.max_source_confidence)) return MERGE_NONE;
+  const vec3 pc = apply(p.T_camera_model, position(si));
+  if (pc.z <= 1e-3f) return MERGE_NONE;
+  const uint32_t S = p.grid_scale, grid_width = p.width * S, grid_height = p.height * S;
+  const float u = (p.fx * pc.x / pc.z + p.cx + 0.5f) * float(S), v = (p.fy * pc.y / pc.z + p.cy + 0.5f) * float(S);
+  const float reach = float(p.window_cells) + 1.0f;
+  if (!(u > -reach && v > -reach && u < float(grid_width) + reach && v < float(grid_height) + reach)) return MERGE_NONE;
+  const int cx = int(std::floor(u)), cy = int(std::floor(v)), R = int(p.window_cells);
+  uint32_t best = MERGE_NONE, last = MERGE_NONE;  // last: the previous cell's surfel (mostly the same)
+  float best_d2 = 1e30f;
+  for (int y = std::max(cy - R, 0); y <= std::min(cy + R, int(grid_height) - 1); ++y)
+    for (int x = std::max(cx - R, 0); x <= std::min(cx + R, int(grid_width) - 1); ++x) {
+      if (!cell_fused(x, y, labels, p)) continue;
+      const uint32_t j = uint32_t(index_map[size_t(y) * grid_width + size_t(x)] & 0xFFFFFFFFu);
+      if (j == 0xFFFFFFFFu || j == i || j == last) continue;
+      last = j;
+      const Surfel& sj = surfels[j];
+      if (!(sj.confidence > si.confidence || (sj.confidence == si.confidence && j < i))) continue;
+      const vec3 d = position(sj) - position(si);
+      const float d2 = glm::dot(d, d), r = p.distance_rel * std::max(si.radius_m, sj.radius_m);
+      if (d2 >= r * r || glm::dot(normal_of(si), normal_of(sj)) < p.min_normal_dot) continue;
+      if (d2 < best_d2 || (d2 == best_d2 && j < best)) best = j, best_d2 = d2;
+    }
+  return best;
+}
+}  // namespace
+
+std::vector<uint32_t> merge_select(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map,
+                                   const std::vector<uint32_t>& labels, const gpu_layout::MergeParams& p) {
+  const size_t n = std::min(surfels.size(), size_t(p.surfel_count));
+  std::vector<uint32_t> target(n, MERGE_NONE);
+  for (uint32_t i = 0; i < n; ++i) target[i] = merge_target(surfels, index_map, labels, i, p);
+  return target;
+}
+
+std::vector<uint32_t> merge_claim(const std::vector<uint32_t>& target) {
+  std::vector<uint32_t> claim(target.size(), MERGE_NONE);
+  for (uint32_t i = 0; i < target.size(); ++i) {
+    const uint32_t t = target[i];
+    if (t != MERGE_NONE && target[t] == MERGE_NONE) claim[t] = std::min(claim[t], i);
+  }
+  return claim;
+}
+
+Surfel merge_surfels(const Surfel& kept, const Surfel& merged) {
+  const float ca = kept.confidence, cb = merged.confidence;
+  const float w = 1.0f / std::max(ca + cb, 1e-20f);
+  const vec3 pos = (ca * position(kept) + cb * position(merged)) * w;
+  const vec3 nrm = glm::normalize(ca * normal_of(kept) + cb * normal_of(merged));
+  const vec3 col = (ca * unpack_rgb(kept.colour_rgba8) + cb * unpack_rgb(merged.colour_rgba8)) * w;
+  Surfel s = kept;
+  s.px = pos.x, s.py = pos.y, s.pz = pos.z;
+  s.nx = nrm.x, s.ny = nrm.y, s.nz = nrm.z;
+  s.colour_rgba8 = pack_rgb(col);
+  s.radius_m = (ca * kept.radius_m + cb * merged.radius_m) * w;
+  s.confidence = std::max(ca, cb);
+  s.created_frame = std::min(kept.created_frame, merged.created_frame);
+  s.last_seen_frame = std::max(kept.last_seen_frame, merged.last_seen_frame);
+  return s;
+}
+
 std::vector<Surfel> cleanup(const std::vector<Surfel>& surfels, const Image<float>& depth_m,
-                            const gpu_layout::CleanupParams& p) {
+                            const gpu_layout::CleanupParams& p, const Merges& merges) {
   std::vector<Surfel> kept;
   for (size_t i = 0; i < surfels.size() && i < p.surfel_count; ++i) {
     Surfel s = surfels[i];
+    if (p.merge) {
+      const uint32_t t = merges.target.at(i);
+      if (t != MERGE_NONE && merges.target.at(t) == MERGE_NONE && merges.claim.at(t) == i) continue;
+      const uint32_t c = merges.claim.at(i);
+      if (c != MERGE_NONE) s = merge_surfels(s, surfels[c]);
+    }
     if (s.confidence < p.stable_confidence && p.frame - s.created_frame > p.unstable_window_frames) continue;
     const vec3 pc = apply(p.T_camera_model, position(s));
     if (pc.z > 1e-3f) {

@@ -149,13 +149,14 @@ struct SubsampleParams {
 #define FUSE_BINDING_ASSOC 5       // uint[] per live pixel: surfel index, 0xFFFFFFFF none, 0xFFFFFFFE skip
 #define FUSE_BINDING_CLAIM 6       // uint[] per surfel: lowest live pixel index associated
 #define FUSE_BINDING_COUNTER 7     // uint[4]: [0] surfel count (new surfels appended atomically)
-#define FUSE_BINDING_LABELS 8      // uint[] per live pixel: model label (used when use_labels)
+#define FUSE_BINDING_LABELS 8      // uint[] per live pixel: model label (read unless label == FUSE_ALL_LABELS)
 // fuse_update only: the surfel buffer again, written here while FUSE_BINDING_SURFELS reads it
 // through its texel view. Safe: a surfel is read and written only by the pixel that claimed it,
 // and appended surfels lie beyond every surfel that is read.
 #define FUSE_BINDING_SURFELS_OUT 9
 #define FUSE_NO_SURFEL 0xFFFFFFFFu
 #define FUSE_SKIP_PIXEL 0xFFFFFFFEu
+#define FUSE_ALL_LABELS 0xFFFFFFFFu  // FuseParams::label: no label image, every pixel is fused
 struct FuseParams {
   float T_camera_model[12];   // current pose of the model in the camera (inverted in the shader)
   float fx, fy, cx, cy;
@@ -167,14 +168,16 @@ struct FuseParams {
   float max_depth_diff_rel;   // association: |z_surfel - z_live| <= max_depth_diff_rel * z_live + 0.005
   float min_normal_dot;       // association: cos(max normal angle)
   float max_radius_growth;    // merge position/normal only if live radius <= this * surfel radius
-  uint use_labels;            // 1: only pixels whose label == label are fused
-  uint label;
+  uint label;                 // only pixels labelled this are fused; FUSE_ALL_LABELS: every pixel
   // Only live pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are associated and fused (a
   // model's labelled pixels); association entries and index-map rows outside are not touched.
   uint rect_x0, rect_y0, rect_x1, rect_y1;
   // The live colour is multiplied by this before it is fused: the frame's exposure gain against
   // the model (TrackerParams::exposure_compensation), so a model keeps one exposure; 1 = as read.
   float colour_gain;
+  // A pixel that no surfel of its block explains spawns a new surfel only when no surfel within
+  // this many cells around the block agrees in depth either (0: the block alone decides).
+  uint new_surfel_clearance_cells;
 };
 
 // ---- surfel_cleanup.comp: drop unstable / free-space-violating surfels, compact the rest ----
@@ -182,6 +185,8 @@ struct FuseParams {
 #define CLEANUP_BINDING_DST 1
 #define CLEANUP_BINDING_DEPTH 2     // live depth (metres) at full resolution
 #define CLEANUP_BINDING_COUNTER 3   // uint[4]: [0] count to scan, [1] kept count (atomic append into DST)
+#define CLEANUP_BINDING_MERGE_TARGET 4  // uint[] per surfel, from surfel_merge_select (read when merge != 0)
+#define CLEANUP_BINDING_MERGE_CLAIM 5   // uint[] per surfel, from surfel_merge_claim (read when merge != 0)
 struct CleanupParams {
   float T_camera_model[12];
   float fx, fy, cx, cy;
@@ -192,6 +197,44 @@ struct CleanupParams {
   int unstable_window_frames;    // unstable surfels older than this are removed
   float free_space_margin_rel;   // a surfel (this * live depth) in front of the live surface is in free space
   float free_space_penalty;      // confidence removed per free-space violation
+  // 1: apply the merges that surfel_merge_select/claim chose: a surfel i with target t, where t
+  // has no target itself and claim[t] == i, is dropped; a surfel i with claim[i] = c != MERGE_NONE
+  // becomes merge_surfels(i, c) (confidence-weighted average, confidences summed).
+  uint merge;
+};
+
+// ---- surfel_merge_select.comp, surfel_merge_claim.comp: duplicate surfels --------------------
+// After fusion's update (before cleanup), each surfel i looks at the cells of fusion's
+// supersampled index map within window_cells of its projection, in the part of the image this
+// fusion covered (cells of pixels in the rectangle and, with use_labels, labelled `label`). A
+// surfel j found there that is more confident (equal confidence: lower index), lies within
+// distance_rel * max(radius_i, radius_j) of i and has a normal within acos(min_normal_dot) of
+// i's is a merge target; i takes the nearest (ties: lowest index) as target[i] (MERGE_NONE: none).
+// surfel_merge_claim then claims each target that has no target of its own for the lowest such
+// source index (atomicMin: order-independent), so every surfel takes part in at most one merge
+// per frame and the result does not depend on thread order. surfel_cleanup applies the merges.
+#define MERGE_BINDING_SURFELS 0    // Surfel[] (texel view), after fusion's update and appends
+#define MERGE_BINDING_INDEX_MAP 1  // fusion's supersampled index map: uint64 keys (texel view), low word = surfel
+#define MERGE_BINDING_TARGET 2     // uint[] per surfel: written by select, read by claim
+#define MERGE_BINDING_CLAIM 3      // uint[] per surfel: lowest source merging into it (MERGE_NONE: none); claim only
+#define MERGE_BINDING_COUNTER 4    // uint[4]: [0] surfel count after fusion's appends
+#define MERGE_BINDING_LABELS 5     // uint[] per live pixel (read when use_labels)
+#define MERGE_NONE 0xFFFFFFFFu
+struct MergeParams {
+  float T_camera_model[12];   // pose of the index map's camera
+  float fx, fy, cx, cy;       // of the full-resolution camera
+  uint width, height;         // live image (the index map has width*grid_scale x height*grid_scale cells)
+  uint grid_scale;
+  uint surfel_count;          // upper bound of counter[0] (the dispatch size)
+  // Live pixels whose cells are searched: [rect_x0, rect_x1) x [rect_y0, rect_y1) (the fusion's
+  // rectangle: the index map's rows outside it are stale) and, with use_labels, labelled `label`.
+  uint rect_x0, rect_y0, rect_x1, rect_y1;
+  uint window_cells;          // half-size of the square of cells searched around the projection
+  float distance_rel;         // merge when |p_i - p_j| < distance_rel * max(radius_i, radius_j)
+  float min_normal_dot;       // ... and dot(n_i, n_j) >= min_normal_dot
+  uint use_labels;
+  uint label;
+  float max_source_confidence;  // only surfels below this confidence look for a target
 };
 
 // ---- surfel_remove_region.comp: remove the surfels that a labelled live region covers ----------

@@ -1,14 +1,16 @@
-// Surfel kernels (splat, resolve, subsample, associate, update, cleanup) against their CPU
+// Surfel kernels (splat, resolve, subsample, associate, update, merge, cleanup) against their CPU
 // references over edge sizes, and the model's fusion/prediction behaviour end to end.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 #include <random>
 
+#include "eval/surfel_map_metrics.h"
 #include "kernels/preprocess_reference.h"
 #include "slam/surfel_model.h"
 #include "slam/surfel_reference.h"
@@ -139,7 +141,7 @@ bool same_surfel(const Surfel& a, const Surfel& b, float tol) {
 
 void sort_by_position(std::vector<Surfel>& v) {
   std::sort(v.begin(), v.end(), [](const Surfel& a, const Surfel& b) {
-    return std::tie(a.pz, a.py, a.px) < std::tie(b.pz, b.py, b.px);
+    return std::tie(a.pz, a.py, a.px, a.nz, a.ny, a.nx, a.confidence) < std::tie(b.pz, b.py, b.px, b.nz, b.ny, b.nx, b.confidence);
   });
 }
 
@@ -309,7 +311,8 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       fp.width = uint32_t(s.width), fp.height = uint32_t(s.height);
       fp.grid_scale = 4, fp.surfel_count = uint32_t(surfels.size()), fp.capacity = capacity, fp.frame = 101;
       fp.max_depth_diff_rel = 0.03f, fp.min_normal_dot = std::cos(20.0f * float(M_PI) / 180.0f);
-      fp.max_radius_growth = 1.5f, fp.use_labels = use_labels, fp.label = 1;
+      fp.max_radius_growth = 1.5f, fp.label = use_labels ? 1u : FUSE_ALL_LABELS;
+      fp.new_surfel_clearance_cells = variant == 1 ? 0u : 1u;
       fp.rect_x0 = uint32_t(rect.x0), fp.rect_y0 = uint32_t(rect.y0), fp.rect_x1 = uint32_t(rect.x1),
       fp.rect_y1 = uint32_t(rect.y1);
       fp.colour_gain = variant == 1 ? 0.8f : 1.0f;  // an exposure gain on the labelled variant
@@ -396,6 +399,180 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       EXPECT_EQ(bad, 0) << "cleanup " << name(s);
     }
   }
+}
+
+// Surfels with near copies (duplicates a merge must find) and copies on another surface (normal
+// 60 degrees off: no merge), with random confidences; some copies tie in confidence.
+std::vector<Surfel> with_copies(std::vector<Surfel> surfels, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> offset(-0.25f, 0.25f), conf(0.0f, 12.0f);
+  const size_t n = surfels.size();
+  for (size_t i = 0; i < n; ++i) {
+    Surfel c = surfels[i];
+    if (i % 3 == 0) {
+      c.px += offset(rng) * c.radius_m, c.py += offset(rng) * c.radius_m, c.pz += offset(rng) * c.radius_m;
+      const glm::vec3 nn = glm::normalize(glm::vec3(c.nx, c.ny, c.nz) + glm::vec3(offset(rng), offset(rng), 0.0f) * 0.5f);
+      c.nx = nn.x, c.ny = nn.y, c.nz = nn.z;
+      c.confidence = i % 9 == 0 ? surfels[i].confidence : conf(rng);
+      c.created_frame -= 3, c.last_seen_frame = 99;
+      surfels.push_back(c);
+    } else if (i % 7 == 0) {
+      const glm::vec3 nn = glm::normalize(glm::vec3(c.nx, c.ny, c.nz));
+      const glm::vec3 side = glm::normalize(glm::cross(nn, glm::vec3(0.3f, 1.0f, 0.1f)));
+      const glm::vec3 turned = 0.5f * nn + 0.8660254f * side;  // 60 degrees
+      c.nx = turned.x, c.ny = turned.y, c.nz = turned.z;
+      c.confidence = conf(rng);
+      surfels.push_back(c);
+    }
+  }
+  return surfels;
+}
+
+// surfel_merge_select, surfel_merge_claim and the merging cleanup against their references, over
+// edge sizes (an empty model included), with and without labels and a rectangle.
+TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
+  const Size sizes[] = {{37, 23}, {1, 1}, {37, 23}, {160, 120}, {640, 480}};
+  for (size_t case_index = 0; case_index < std::size(sizes); ++case_index) {
+    const Size s = sizes[case_index];
+    const Intrinsics k = intrinsics_for(s);
+    const auto T_camera_model = test_pose(0.002, {0.001, 0.0, -0.001});
+    const auto surfels = case_index == 0 ? std::vector<Surfel>{} : with_copies(make_surfels(s, k, 6, T_camera_model.inverse()), 7);
+    const uint32_t n = uint32_t(surfels.size());
+    auto sp = splat_params(k, T_camera_model, n, 2);
+    sp.min_confidence = 0.0f, sp.recent_window_frames = 0;  // as fusion splats
+    const auto grid = ref::splat(surfels, sp);
+    std::vector<uint32_t> labels(size_t(s.width) * s.height);
+    for (size_t i = 0; i < labels.size(); ++i) labels[i] = (i / 5) % 4 == 0 ? 2u : 1u;
+    for (int variant = 0; variant < 2; ++variant) {
+      const std::string what = (case_index == 0 ? "empty model " : "") + name(s) + (variant ? " labelled, in a rectangle" : "");
+      L::MergeParams mp{};
+      std::copy(sp.T_camera_model, sp.T_camera_model + 12, mp.T_camera_model);
+      mp.fx = sp.fx, mp.fy = sp.fy, mp.cx = sp.cx, mp.cy = sp.cy;
+      mp.width = uint32_t(s.width), mp.height = uint32_t(s.height), mp.grid_scale = 2, mp.surfel_count = n;
+      const PixelRect rect = variant ? PixelRect{s.width / 4, s.height / 3, s.width, (3 * s.height + 3) / 4}
+                                     : PixelRect::full(s.width, s.height);
+      mp.rect_x0 = uint32_t(rect.x0), mp.rect_y0 = uint32_t(rect.y0), mp.rect_x1 = uint32_t(rect.x1),
+      mp.rect_y1 = uint32_t(rect.y1);
+      mp.window_cells = 2, mp.distance_rel = 0.5f, mp.min_normal_dot = std::cos(35.0f * float(M_PI) / 180.0f);
+      mp.max_source_confidence = 8.0f;
+      mp.use_labels = uint32_t(variant), mp.label = 1;
+      const size_t slots = std::max<size_t>(n, 4);
+      slam::SurfelPipelines::MergeBuffers b{upload(surfels.empty() ? std::vector<Surfel>(1) : surfels, "surfels"),
+                                            upload(grid, "grid"),
+                                            gpu::Buffer::create(ctx(), slots * 4, "target"),
+                                            gpu::Buffer::create(ctx(), slots * 4, "claim"),
+                                            upload(std::vector<uint32_t>{n, 0, 0, 0}),
+                                            upload(labels, "labels")};
+      stream().run([&](gpu::CommandList& c) { pipes_->merge_select(c, b, mp); });
+      const auto cpu_target = ref::merge_select(surfels, grid, labels, mp);
+      const auto gpu_target = download<uint32_t>(b.target, n);
+      size_t differ = 0, merging = 0;
+      for (size_t i = 0; i < n; ++i) {
+        differ += gpu_target[i] != cpu_target[i];
+        merging += cpu_target[i] != MERGE_NONE;
+      }
+      // Tolerance: projections and distances on rounding boundaries may flip for 0.2% of surfels.
+      EXPECT_LE(differ, size_t(n) / 500) << what;
+      if (s.width >= 160) {
+        EXPECT_GT(merging, size_t(n) / (variant ? 40 : 10)) << "test data merges too little: " << what;
+      }
+
+      // The claims from the CPU's targets on both sides: exact.
+      if (n > 0) stream().upload(b.target, cpu_target.data(), size_t(n) * 4);
+      stream().run([&](gpu::CommandList& c) {
+        c.fill(b.claim, MERGE_NONE);
+        c.barrier();
+        pipes_->merge_claim(c, b, mp);
+      });
+      const auto cpu_claim = ref::merge_claim(cpu_target);
+      EXPECT_EQ(download<uint32_t>(b.claim, n), cpu_claim) << what;
+
+      // The cleanup applying the CPU's merges, on both sides.
+      if (n > 0) stream().upload(b.claim, cpu_claim.data(), size_t(n) * 4);
+      L::CleanupParams cp{};
+      std::copy(sp.T_camera_model, sp.T_camera_model + 12, cp.T_camera_model);
+      cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy, cp.width = mp.width, cp.height = mp.height;
+      cp.surfel_count = n, cp.frame = 110, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
+      cp.free_space_margin_rel = 0.05f, cp.free_space_penalty = 1.0f, cp.merge = 1;
+      const Image<float> no_depth(s.width, s.height);
+      auto dst = gpu::Buffer::create(ctx(), slots * sizeof(Surfel), "cleanup dst");
+      auto counter = upload(std::vector<uint32_t>{n, 0, 0, 0});
+      auto depth_buffer = upload(no_depth.pixels);
+      stream().run([&](gpu::CommandList& c) { pipes_->cleanup(c, b.surfels, dst, depth_buffer, counter, cp, b.target, b.claim); });
+      auto cpu_kept = ref::cleanup(surfels, no_depth, cp, ref::Merges{cpu_target, cpu_claim});
+      const uint32_t kept = download<uint32_t>(counter, 2)[1];
+      ASSERT_EQ(kept, cpu_kept.size()) << what;
+      auto gpu_kept = download<Surfel>(dst, kept);
+      sort_by_position(gpu_kept);
+      sort_by_position(cpu_kept);
+      int bad = 0;
+      for (size_t i = 0; i < cpu_kept.size(); ++i) bad += !same_surfel(gpu_kept[i], cpu_kept[i], 2e-5f);
+      EXPECT_EQ(bad, 0) << "merging cleanup " << what;
+    }
+  }
+}
+
+// Depth of scene_depth's scene (world frame = the identity camera's) seen by a camera at
+// T_world_camera.
+Image<float> scene_depth_from(Size s, const Intrinsics& k, const Eigen::Isometry3d& T_world_camera) {
+  Image<float> d(s.width, s.height);
+  const Eigen::Vector3d o = T_world_camera.translation(), centre(0.2, 0.0, 1.5);
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x) {
+      const Eigen::Vector3d ray_c((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0);  // camera depth = t
+      const Eigen::Vector3d r = T_world_camera.linear() * ray_c;
+      double t = (2.5 - o.z()) / r.z();
+      if (r.y() > 0.1 * r.z()) t = std::min(t, (0.9 - o.y()) / r.y());
+      const Eigen::Vector3d oc = o - centre;
+      const double a = r.squaredNorm(), b = oc.dot(r), c = oc.squaredNorm() - 0.09;
+      if (b * b - a * c > 0) t = std::min(t, (-b - std::sqrt(b * b - a * c)) / a);
+      d.at(x, y) = float(t);
+    }
+  return d;
+}
+
+// A static scene seen from a camera that turns back and forth (TUM fr1/rpy in small): with
+// merging the model keeps to about one surfel per surface pixel; without, every new view adds
+// surfels between the known ones.
+TEST_F(SurfelKernels, MergingKeepsTheModelOfAStaticSceneFromGrowing) {
+  const Size s{160, 120};
+  const Intrinsics k = intrinsics_for(s);
+  std::vector<uint8_t> rgb(size_t(s.width) * s.height * 3, 128);
+  kernels::PreprocessParams pp;
+  pp.bilateral = false;
+  auto frame = kernels::FramePyramid::allocate(ctx(), k, 3, "live");
+  slam::FusionParams merging, not_merging;
+  not_merging.merge_distance_rel = 0.0f;
+  slam::SurfelModel with(ctx(), 0, 1024), without(ctx(), 1, 1024);
+  size_t first_view_surfels = 0;
+  for (int f = 0; f < 16; ++f) {
+    Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+    T_world_camera.linear() = (Eigen::AngleAxisd(0.02 * std::sin(0.9 * f), Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(0.015 * std::sin(1.7 * f), Eigen::Vector3d::UnitX()) *
+                               Eigen::AngleAxisd(0.03 * std::sin(0.6 * f), Eigen::Vector3d::UnitZ()))
+                                  .toRotationMatrix();
+    const auto depth = scene_depth_from(s, k, T_world_camera);
+    frame.upload(stream(), depth.pixels.data(), rgb.data());
+    stream().run([&](gpu::CommandList& c) { pre_->record_frame(c, frame, kernels::FramePyramid::kUploadMetresPerUnit, pp); });
+    pipes_->fuse(stream(), with, frame, T_world_camera.inverse(), f, merging);
+    pipes_->fuse(stream(), without, frame, T_world_camera.inverse(), f, not_merging);
+    if (f == 0) first_view_surfels = with.count();
+  }
+  const auto stats = [&](slam::SurfelModel& m) {
+    std::vector<eval::MapSurfel> map;
+    for (const auto& sf : m.download(stream()))
+      map.push_back({Eigen::Vector3f(sf.px, sf.py, sf.pz), Eigen::Vector3f(sf.nx, sf.ny, sf.nz), sf.radius_m, sf.confidence});
+    return eval::compute_surfel_map_stats(map);
+  };
+  const auto a = stats(with), b = stats(without);
+  std::printf("first view %zu surfels; after 16 views: merging %zu (%.1f%% duplicates), not merging %zu (%.1f%%)\n",
+              first_view_surfels, a.surfels, 100 * a.duplicate_share, b.surfels, 100 * b.duplicate_share);
+  // Measured with the defaults: 12.5k surfels merging, 19.7k not (first view 18.6k). The duplicate
+  // share of this small 160x120 scene stays at about 18 % either way (TUM fr1/rpy: 44 % -> 4 %):
+  // not yet understood, so only bounded by the unmerged model's here.
+  EXPECT_LT(double(a.surfels), 0.8 * double(b.surfels));
+  EXPECT_LT(double(a.surfels), 1.05 * double(first_view_surfels)) << "the views overlap: the model must not grow much";
+  EXPECT_LE(a.duplicate_share, b.duplicate_share + 0.01);
 }
 
 // The model end to end: fuse a frame into an empty model, predict it back from the same pose,
