@@ -96,6 +96,7 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
     // Fewer pixels, fewer correspondences needed (but never fewer than two per unknown).
     const double pixel_share = static_cast<double>(level_pixels[level]) / static_cast<double>(level_pixels[0]);
     const double min_corr = std::max(12.0, params.min_correspondences * pixel_share);
+    const Eigen::Isometry3d T_level_start = T;
     for (int it = 0; it < params.iterations_per_level[level]; ++it) {
       LinearSystemSums s = sums(level, T, scales);
       if (!evaluated) {
@@ -146,7 +147,16 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
       const Vector6d xi = H.ldlt().solve(-b);
       if (!xi.allFinite()) return fail("non-finite update at " + where);
       const double step_t = xi.head<3>().norm(), step_r = xi.tail<3>().norm();
-      if (step_t > params.max_step_translation_m || step_r > params.max_step_rotation_deg * kRadPerDeg)
+      const bool diverged = step_t > params.max_step_translation_m || step_r > params.max_step_rotation_deg * kRadPerDeg;
+      // A coarse level can ask for a wild step where the finer ones do not (people covering most
+      // of a 80x60 image): the level's steps are undone and the next finer level goes on from the
+      // pose it started with; only the finest level's divergence fails the tracking.
+      if (level > 0 && diverged) {
+        T = T_level_start;
+        ++result.skipped_diverging_levels;
+        break;
+      }
+      if (diverged)
         return fail("diverged at " + where + ": step of " + fmt(step_t) + " m, " + fmt(step_r / kRadPerDeg) + " deg");
       T = orthonormalised(se3_exp(xi) * T);
       if (step_t < params.converged_translation_m && step_r < params.converged_rotation_rad) break;

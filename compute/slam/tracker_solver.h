@@ -159,6 +159,7 @@ struct TrackingResult {
   double live_intensity_gain = 1;  // the live frame's exposure gain used by the last iteration
   double eigenvalue_ratio = 0;  // balanced smallest / largest eigenvalue of the last system
   int iterations = 0;         // Gauss-Newton iterations run over all levels
+  int skipped_diverging_levels = 0;  // coarse levels whose step diverged and whose steps were undone
   bool failed = false;
   std::string failure_reason;  // one line; empty unless failed
 };

@@ -471,10 +471,46 @@ TEST(TrackerSolver, CoarseLevelsWithTooFewCorrespondencesAreSkipped) {
   EXPECT_TRUE(r.T_reference_live.isApprox(guess, 1e-12));
   EXPECT_EQ(levels_seen, (std::vector<int>{3, 2, 1, 0}));  // one look per coarse level
 
-  params.min_coarse_level_correspondences = 0;  // solve every level: the 1 m step diverges
+  // Solve every level: each coarse level's 1 m step diverges, is undone and the level skipped.
+  params.min_coarse_level_correspondences = 0;
+  params.min_correspondences = 100;  // at most 25 at the coarse levels
+  levels_seen.clear();
   const slam::TrackingResult solved = slam::gauss_newton(pixels, sums, guess, params);
-  EXPECT_TRUE(solved.failed);
-  EXPECT_NE(solved.failure_reason.find("diverged at level 3"), std::string::npos) << solved.failure_reason;
+  EXPECT_FALSE(solved.failed) << solved.failure_reason;
+  EXPECT_TRUE(solved.T_reference_live.isApprox(guess, 1e-12));
+  EXPECT_EQ(solved.skipped_diverging_levels, 3);
+  EXPECT_EQ(levels_seen, (std::vector<int>{3, 2, 1, 0}));
+}
+
+// A diverging coarse level (people covering most of an 80x60 image) has its steps undone and the
+// next finer level starts from the pose the coarse level started with; divergence at the finest
+// level fails the tracking.
+TEST(TrackerSolver, DivergingCoarseLevelsAreUndoneButNotTheFinest) {
+  const std::vector<long> pixels = {640 * 480, 320 * 240, 160 * 120};
+  std::vector<int> levels_seen;
+  bool finest_diverges = false;
+  int level1_calls = 0;
+  // Level 2 converges at once; level 1 first asks for a 1 cm step along x, then a 1 m one; the
+  // finest level is converged at any pose unless `finest_diverges`.
+  const slam::SumsAtLevel sums = recorded_icp_sums(levels_seen, [&](int level) {
+    Vector6d b = Vector6d::Zero();
+    if (level == 1) b(0) = ++level1_calls == 1 ? -0.01 : -1.0;
+    if (level == 0 && finest_diverges) b(0) = -1.0;
+    return diagonal_term(Vector6d::Constant(1.0), b, 5000);
+  });
+  slam::TrackerParams params = icp_only_params();
+  params.iterations_per_level = {1, 4, 1};
+  const slam::TrackingResult r = slam::gauss_newton(pixels, sums, kSolverGuess, params);
+  EXPECT_FALSE(r.failed) << r.failure_reason;
+  EXPECT_TRUE(r.T_reference_live.isApprox(kSolverGuess, 1e-12));  // the 1 cm step was undone too
+  EXPECT_EQ(r.skipped_diverging_levels, 1);
+  EXPECT_EQ(levels_seen, (std::vector<int>{2, 1, 1, 0}));
+
+  finest_diverges = true;
+  level1_calls = 0;
+  const slam::TrackingResult d = slam::gauss_newton(pixels, sums, kSolverGuess, params);
+  EXPECT_TRUE(d.failed);
+  EXPECT_NE(d.failure_reason.find("diverged at level 0"), std::string::npos) << d.failure_reason;
 }
 
 // The inlier ratio leaves out live pixels that occlude the reference (people in front of the
