@@ -22,6 +22,18 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_between(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
 
+// Mean alignment cost per residual: point-to-plane squared plus lambda times photometric squared
+// (sums of squares and counts of each term).
+double mean_cost(double icp_r2, double icp_n, double rgb_r2, double rgb_n, double lambda) {
+  const double n = icp_n + (lambda > 0 ? rgb_n : 0.0);
+  return n > 0 ? (icp_r2 + lambda * rgb_r2) / n : 0.0;
+}
+
+// The same for a tracking's last iteration.
+double mean_alignment_cost(const TrackingResult& t, double lambda) {
+  return mean_cost(t.icp_rms_m * t.icp_rms_m * t.icp_inliers, t.icp_inliers, t.rgb_rms * t.rgb_rms * t.rgb_residuals,
+                   t.rgb_residuals, lambda);
+}
 
 // Bounding rectangle of each slot's pixels in a label map (empty for slots without pixels).
 std::vector<PixelRect> slot_rects(const std::vector<uint8_t>& slots, int width, int height) {
@@ -158,8 +170,18 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
 void CoFusion::track_model(Model& m) {
   const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? m.last_motion : Eigen::Isometry3d::Identity();
   // Background-only runs track with every live pixel: there is nothing to mask.
-  m.tracking = m.tracker.track(m.stream, params_.motion_segmentation ? m.masked : live_.levels, m.prediction.levels, guess,
-                               m.track_rect);
+  const auto& live = params_.motion_segmentation ? m.masked : live_.levels;
+  m.tracking = m.tracker.track(m.stream, live, m.prediction.levels, guess, m.track_rect);
+  // A new model's velocity guess is its region's centroid step, which is off when the region grew
+  // or shrank between the frames: it is also tracked from no motion, and the alignment with the
+  // lower cost per residual is kept (the inlier counts mislead: a wrong pose can pair more pixels).
+  if (m.guess_from_centroid_step && !guess.isApprox(Eigen::Isometry3d::Identity())) {
+    TrackingResult still = m.tracker.track(m.stream, live, m.prediction.levels, Eigen::Isometry3d::Identity(), m.track_rect);
+    const double lambda = m.tracker.params().use_photometric ? m.tracker.params().photometric_weight : 0.0;
+    if (!still.failed && (m.tracking.failed || mean_alignment_cost(still, lambda) < mean_alignment_cost(m.tracking, lambda)))
+      m.tracking = std::move(still);
+  }
+  m.guess_from_centroid_step = false;
   m.tracked = true;
   m.motion = m.tracking.failed ? guess : m.tracking.T_reference_live;
 }
@@ -272,18 +294,13 @@ void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
     // The tracked motion's fit is tracking's last iteration's (at the pose before its final,
     // converged step), so only rest needs a reduction of its own.
     const TrackingResult& t = m.tracking;
-    const auto mean_cost = [&](double icp_r2, double icp_n, double rgb_r2, double rgb_n) {
-      const double n = icp_n + (lambda > 0 ? rgb_n : 0.0);
-      return n > 0 ? (icp_r2 + lambda * rgb_r2) / n : 0.0;
-    };
     const double moved_n = t.icp_inliers;
-    const double moved_cost = mean_cost(t.icp_rms_m * t.icp_rms_m * moved_n, moved_n, t.rgb_rms * t.rgb_rms * t.rgb_residuals,
-                                        t.rgb_residuals);
+    const double moved_cost = mean_alignment_cost(t, lambda);
     const IterationScales scales{tp.icp_huber_k * t.icp_rms_m, tp.photometric_huber_k * t.rgb_rms,
                                  t.live_intensity_gain};  // as tracking's last iteration
     const LinearSystemSums still =
         m.tracker.compute_sums(m.stream, m.masked[0], m.prediction.levels[0], camera_motion, m.track_rect, scales);
-    const double still_cost = mean_cost(still.icp[27], still.icp[28], still.rgb[27], still.rgb[28]);
+    const double still_cost = mean_cost(still.icp[27], still.icp[28], still.rgb[27], still.rgb[28], lambda);
     if (moved_n > 0 && still.icp[28] >= rest.min_correspondence_fraction * moved_n &&
         still_cost <= (1.0 + rest.max_cost_increase) * moved_cost)
       m.motion = camera_motion;

@@ -269,6 +269,7 @@ void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector
     }
   if (reactivated) {
     reactivated->last_motion = velocity_guess;
+    reactivated->guess_from_centroid_step = true;
     out.events.push_back("frame " + std::to_string(frame_) + ": " + (was_active ? "re-found model " : "re-activated model ") +
                          std::to_string(reactivated->id) + " (" + share + " of the image)");
     return;
@@ -278,6 +279,7 @@ void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector
   Model& m = create_model(sp.slot, T_world_camera_ * T_camera_model);
   m.pixels = static_cast<int>(pixels.size());
   m.last_motion = velocity_guess;
+  m.guess_from_centroid_step = true;
   spawned_slots.push_back(sp.slot);
   out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" + share +
                        " of the image)");
