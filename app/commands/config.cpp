@@ -275,7 +275,10 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     // --classes); the thresholds from here.
     q.field("confirm_frames", config.semantic.confirm_frames)
         .field("min_instance_area_fraction", config.semantic.min_instance_area_fraction)
-        .field("join_min_iou", config.semantic.join_min_iou);
+        .field("join_min_iou", config.semantic.join_min_iou)
+        .field("exclude_margin_px", config.semantic.exclude_margin_px);
+    if (config.semantic.exclude_margin_px < 0 || config.semantic.exclude_margin_px > 64)
+      throw Error(q.where() + ".exclude_margin_px: must be 0..64");
     if (config.semantic.confirm_frames < 1 ||
         !(config.semantic.min_instance_area_fraction >= 0 && config.semantic.min_instance_area_fraction <= 1) ||
         !(config.semantic.join_min_iou > 0 && config.semantic.join_min_iou <= 1))

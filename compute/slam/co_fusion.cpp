@@ -494,6 +494,7 @@ std::vector<uint8_t> CoFusion::begin_semantic_frame(const SemanticFrame* semanti
   check_semantic_frame(*semantic, size_t(intrinsics_.width) * intrinsics_.height);
   if (excluded_pixels(*semantic, params_.semantic, excluded) > 0 && !params_.motion_segmentation)
     throw Error("excluding classes by their masks needs motion segmentation (not implemented for background-only runs)");
+  if (!excluded.empty()) grow_mask(excluded, intrinsics_.width, params_.semantic.exclude_margin_px);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
   return excluded;
 }

@@ -55,6 +55,10 @@ struct SemanticParams {
   // A mask joins a model when the intersection over union of its pixels (with depth) and the
   // model's labelled footprint in the previous frame is at least this (fraction, 0-1).
   double join_min_iou = 0.3;
+  // Excluded pixels are grown by this many pixels (a square of 2r+1 around each): masks lag what
+  // they cover (the detector's come from the previous frame) and miss a mover's edge, and a
+  // person's rim left in the frame pulls the camera (pixels, at the input's resolution).
+  int exclude_margin_px = 8;
 };
 
 // Throws cofusion::Error unless `frame` has `pixels` ids.
@@ -68,6 +72,10 @@ bool is_modelled_class(const SemanticParams& params, const std::string& class_na
 // Per pixel 1 where the pixel's instance has an excluded class, else 0. Returns the count of such
 // pixels (0: `excluded` is left empty).
 size_t excluded_pixels(const SemanticFrame& frame, const SemanticParams& params, std::vector<uint8_t>& excluded);
+
+// Sets every pixel within `radius_px` (Chebyshev distance) of a non-zero pixel of a row-major
+// mask of `width` columns to 1. Returns the count of non-zero pixels after.
+size_t grow_mask(std::vector<uint8_t>& mask, int width, int radius_px);
 
 // One instance of a frame's masks whose class is modelled (is_modelled_class).
 struct MaskInstance {

@@ -27,6 +27,27 @@ SemanticFrame semantic_frame(const Frame& frame) {
   return s;
 }
 
+// The excluded pixels' margin: every pixel within r (Chebyshev) of a set one, clipped at the
+// image's edges, against a brute-force reference over sizes and radii.
+TEST(SemanticMasks, GrowMaskSetsEveryPixelWithinTheRadius) {
+  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {7, 5}, {1, 9}, {13, 1}, {31, 17}})
+    for (int r : {0, 1, 2, 4, 40}) {
+      std::vector<uint8_t> mask(size_t(w) * h, 0);
+      for (size_t i = 0; i < mask.size(); ++i) mask[i] = (i * 2654435761u) % 23 == 0;  // sparse seeds
+      mask[0] = 1;
+      std::vector<uint8_t> expected(mask.size(), 0);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          for (int v = std::max(0, y - r); v <= std::min(h - 1, y + r); ++v)
+            for (int u = std::max(0, x - r); u <= std::min(w - 1, x + r); ++u) expected[size_t(y) * w + x] |= mask[size_t(v) * w + u];
+      const size_t count = slam::grow_mask(mask, w, r);
+      EXPECT_EQ(mask, expected) << w << "x" << h << " r " << r;
+      EXPECT_EQ(count, size_t(std::count(expected.begin(), expected.end(), 1)));
+    }
+  std::vector<uint8_t> odd(10, 0);
+  EXPECT_THROW(slam::grow_mask(odd, 3, 1), Error);
+}
+
 TEST(SemanticMasks, ExcludedPixelsAreThoseOfExcludedClasses) {
   SemanticFrame f;
   f.ids = {0, 1, 2, 3, 1, 7};
