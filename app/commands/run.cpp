@@ -239,97 +239,225 @@ void write_label_image(const fs::path& dir, const Frame& frame, std::vector<uint
   });
 }
 
-int run(const RunOptions& o) {
-  if (handle_list_devices(o.gpu)) return 0;
-  const PipelineConfig config = o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file);
-  const slam::CoFusionParams params = pipeline_params(o, config);
-  SourceOptions source_options;
-  source_options.intrinsics = o.intrinsics;
-  source_options.depth_correction = o.depth_correction;
-  source_options.max_frames = o.max_frames;
-  source_options.seed = o.seed;
-  source_options.read_ahead_frames = SourceOptions::kRunReadAheadFrames;
-  auto source = open_source(o.input, source_options);
-  const Intrinsics intrinsics = source->intrinsics();
-  if (!intrinsics.plausible()) throw Error("input " + o.input + ": implausible intrinsics " + intrinsics.to_string());
-  const fs::path out_dir = o.output;
-  // Taken away again unless the first frame is processed: a failed start leaves nothing behind.
-  OutputFolder output_folder(out_dir, o.save_segmentation ? std::vector<std::string>{"trajectories", "segmentation"}
-                                                          : std::vector<std::string>{"trajectories"});
+// The viewer's device extensions, or a clear error when no window can be opened.
+gpu::ContextOptions context_options_for(const RunOptions& o) {
+  gpu::ContextOptions options = o.gpu.context_options();
+  if (o.headless) return options;
+  try {
+    renderer::Viewer::add_required_extensions(options);
+  } catch (const std::exception& e) {
+    throw Error(std::string("cannot open the viewer (") + e.what() + "); run with --headless");
+  }
+  return options;
+}
+
+std::unique_ptr<FrameSource> open_run_source(const RunOptions& o) {
+  SourceOptions options;
+  options.intrinsics = o.intrinsics;
+  options.depth_correction = o.depth_correction;
+  options.max_frames = o.max_frames;
+  options.seed = o.seed;
+  options.read_ahead_frames = SourceOptions::kRunReadAheadFrames;
+  auto source = open_source(o.input, options);
+  if (!source->intrinsics().plausible())
+    throw Error("input " + o.input + ": implausible intrinsics " + source->intrinsics().to_string());
+  return source;
+}
+
+// The output folder, after checking that the screenshot can be written.
+fs::path checked_output_dir(const RunOptions& o) {
   if (!o.screenshot.empty()) {
     const fs::path parent = fs::path(o.screenshot).parent_path();
     ensure_writable_directory(parent.empty() ? fs::path(".") : parent);
   }
+  return o.output;
+}
 
-  gpu::ContextOptions context_options = o.gpu.context_options();
-  if (!o.headless) {
+std::vector<std::string> output_subfolders(const RunOptions& o) {
+  return o.save_segmentation ? std::vector<std::string>{"trajectories", "segmentation"}
+                             : std::vector<std::string>{"trajectories"};
+}
+
+// One `cofusion run`: its source, device, pipeline and viewer, and what it has gathered frame by
+// frame; the frame loop, then every output for the frames processed (also after a stop or fault).
+class RunSession {
+ public:
+  explicit RunSession(const RunOptions& o)
+      : o_(o),
+        config_(o.config_file.empty() ? PipelineConfig{} : load_config(o.config_file)),
+        params_(pipeline_params(o, config_)),
+        source_(open_run_source(o)),
+        intrinsics_(source_->intrinsics()),
+        out_dir_(checked_output_dir(o)),
+        output_folder_(out_dir_, output_subfolders(o)),
+        ctx_(context_options_for(o)),
+        slam_(ctx_, intrinsics_, params_),
+        // A camera: the detector never holds it up.
+        masks_(o.semantic_source, config_.motion_segmentation, intrinsics_, o.input.rfind("openni2", 0) != 0,
+               o.detector_every),
+        gate_(*source_, intrinsics_, o.frame_gate),
+        progress_(::isatty(STDOUT_FILENO)),
+        total_frames_(source_->size()) {
+    std::printf("device: %s\ninput: %s\n", ctx_.description().c_str(), source_->describe().c_str());
+    if (!o.headless || !o.screenshot.empty()) view_renderer_ = std::make_unique<renderer::ViewRenderer>(ctx_);
+    if (!o.headless) viewer_ = std::make_unique<renderer::Viewer>(ctx_);
+  }
+
+  // The exit status: 0, or 128 + the signal that stopped the run (its outputs written).
+  int run() {
+    start_ = std::chrono::steady_clock::now();
     try {
-      renderer::Viewer::add_required_extensions(context_options);
+      while (!stop_requested() && viewer_allows_next_frame() && process_next_frame()) {
+      }
     } catch (const std::exception& e) {
-      throw Error(std::string("cannot open the viewer (") + e.what() + "); run with --headless");
+      if (frames_ == 0) throw;  // nothing to keep
+      fault_ = std::current_exception();
+      stop_reason_ = std::string("error: ") + e.what();
+      progress_.message("error after " + std::to_string(frames_) + " frames: " + e.what() +
+                            "\nwriting the outputs of those frames",
+                        stderr);
+    }
+    progress_.finish();
+    if (frames_ == 0 && !stop_reason_.empty()) throw Error(stop_reason_ + " before the first frame; nothing written");
+    if (frames_ == 0) throw Error("input " + o_.input + " has no frames");
+    if (!fault_ && ctx_.validation_error_count() > 0)
+      throw Error(std::to_string(ctx_.validation_error_count()) + " Vulkan validation errors (see above)");
+    write_outputs();
+    if (fault_) std::rethrow_exception(fault_);
+    // Stopped by a signal: the shell's convention for it, 128 + the signal number.
+    return stop_signals_.requested() ? 128 + stop_signals_.requested() : 0;
+  }
+
+ private:
+  double elapsed_s() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+  bool stop_requested() {
+    const int signal = stop_signals_.requested();
+    if (!signal) return false;
+    stop_reason_ = StopSignals::name(signal);
+    progress_.message(stop_reason_ + ": stopping after " + std::to_string(frames_) +
+                      " frames; writing their outputs (a second " + stop_reason_ + " ends at once)");
+    return true;
+  }
+
+  // Space pauses, N runs one frame, Q quits; the window stays live while paused.
+  bool viewer_allows_next_frame() {
+    if (!viewer_) return true;
+    while (viewer_->state().paused && !viewer_->state().step_requested && !viewer_->state().quit_requested &&
+           viewer_->poll())
+      show();
+    if (viewer_->state().quit_requested || !viewer_->poll()) return false;
+    viewer_->state().step_requested = false;
+    return true;
+  }
+
+  // Reads, processes and records the next frame; false at the end of the input.
+  bool process_next_frame() {
+    std::optional<Frame> frame;
+    {
+      ScopedStage s(times_, "read");
+      frame = gate_.next();
+    }
+    if (!frame) return false;
+    if (gate_.skipped().size() > skipped_before_ && !timestamps_.empty() &&
+        frame->timestamp_s - timestamps_.back() > o_.frame_gate.relocalise_after_gap_s)
+      slam_.note_gap();  // a long gap: relocalise across it
+    skipped_before_ = gate_.skipped().size();
+    const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
+    const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
+    slam::CoFusionFrame r = slam_.process(depth.ptr<float>(), rgb.data, masks_.for_frame(*frame, rgb, depth));
+    record(*frame, r);
+    return true;
+  }
+
+  void record(const Frame& frame, slam::CoFusionFrame& r) {
+    for (const auto& [stage, ms] : r.stage_ms) times_.add(stage, ms);
+    if (r.frame > 0 && config_.motion_segmentation) {
+      times_.add("superpixels (CPU)", r.superpixels_ms);
+      times_.add("superpixels overlapped with GPU", r.superpixels_overlap_ms);
+    }
+    camera_.push_back({frame.timestamp_s, r.T_world_camera});
+    if (frame.T_world_camera_gt) groundtruth_.push_back({frame.timestamp_s, *frame.T_world_camera_gt});
+    timestamps_.push_back(frame.timestamp_s);
+    ++frames_;  // processed: its pose is in the trajectory
+    output_folder_.keep();  // from the first processed frame on, the run has output to write
+    T_world_camera_last_ = r.T_world_camera;
+    if (r.camera_state == slam::CameraState::kLost) {
+      failed_frames_.push_back(frame.index);
+      progress_.message("frame " + std::to_string(frame.index) + ": camera lost (" +
+                        r.camera_tracking.failure_reason + "); pose not updated, frame not fused");
+    } else if (r.camera_state == slam::CameraState::kRecovered) {
+      recovered_frames_.push_back(frame.index);
+    }
+    for (const auto& e : r.events) {
+      progress_.message(e);
+      events_.push_back(e);
+    }
+    if (o_.save_segmentation) write_label_image(out_dir_ / "segmentation", frame, r.labels);
+    report_progress(frame, r);
+  }
+
+  void report_progress(const Frame& frame, slam::CoFusionFrame& r) {
+    unsigned surfels = 0;
+    for (const auto& m : r.active) surfels += m.surfels;
+    const double elapsed = elapsed_s();
+    progress_.update({.processed = frames_,
+                      .read = frame.index + 1,
+                      .total = total_frames_,
+                      .fps = frames_ / elapsed,
+                      .models = r.active.size(),
+                      .surfels = surfels,
+                      .inlier_ratio = r.camera_tracking.inlier_ratio,
+                      .camera_state = slam::to_string(r.camera_state)});
+    if (viewer_ || !o_.screenshot.empty()) {
+      last_frame_ = frame;
+      last_labels_ = std::move(r.labels);
+    }
+    if (viewer_) {
+      char line[160];
+      std::snprintf(line, sizeof line, "frame %d  %.1f fps  models %zu  surfels %u  camera %s", frames_,
+                    frames_ / elapsed, r.active.size(), surfels, slam::to_string(r.camera_state));
+      status_ = line;
+      show();
     }
   }
-  gpu::Context ctx(context_options);
-  std::printf("device: %s\ninput: %s\n", ctx.description().c_str(), source->describe().c_str());
-  std::unique_ptr<renderer::ViewRenderer> view_renderer;
-  std::unique_ptr<renderer::Viewer> viewer;
-  if (!o.headless || !o.screenshot.empty()) view_renderer = std::make_unique<renderer::ViewRenderer>(ctx);
-  if (!o.headless) viewer = std::make_unique<renderer::Viewer>(ctx);
 
-  slam::CoFusion slam(ctx, intrinsics, params);
-  // Where the instance masks come from, decided at the first frame (whether the input has masks).
-  const bool live_input = o.input.rfind("openni2", 0) == 0;  // a camera: the detector never holds it up
-  FrameMasks masks(o.semantic_source, config.motion_segmentation, intrinsics, !live_input, o.detector_every);
-  StageTimes times;
-  Trajectory camera;
-  std::vector<double> timestamps;  // per processed frame, for the model trajectories
-  std::vector<int> failed_frames;     // lost: camera tracking failed or not yet relocalised
-  std::vector<int> recovered_frames;  // relocalised after a loss
-  std::vector<std::string> events;
-  FrameGate gate(*source, intrinsics, o.frame_gate);
-  size_t skipped_before = 0;  // gate.skipped() at the previous frame
-  const StopSignals stop_signals;
-  std::string stop_reason;  // why the run ended before its input did; empty when it did not
-  std::exception_ptr fault;  // the error that ended the run after its first frame
-  const auto start = std::chrono::steady_clock::now();
-  int frames = 0;
-  ProgressPrinter progress(::isatty(STDOUT_FILENO));
-  const std::optional<int> total_frames = source->size();
-  Trajectory groundtruth;  // the input's camera poses of the processed frames, where it has them
-  Pose T_world_camera_last = Pose::Identity();
-  std::optional<Frame> last_frame;  // shares the pixels; insets are made only when drawn
-  std::vector<uint16_t> last_labels;
-  const auto make_overlay = [&](const std::vector<std::string>& text) {
+  renderer::Overlay make_overlay(const std::vector<std::string>& text) const {
     renderer::Overlay overlay;
-    if (last_frame) overlay.insets = live_insets(*last_frame, last_labels);
-    for (const auto& p : camera) overlay.trajectory_world.push_back(p.T_world_x.translation());
-    overlay.T_world_camera = T_world_camera_last;
-    overlay.camera_intrinsics = intrinsics;
+    if (last_frame_) overlay.insets = live_insets(*last_frame_, last_labels_);
+    for (const auto& p : camera_) overlay.trajectory_world.push_back(p.T_world_x.translation());
+    overlay.T_world_camera = T_world_camera_last_;
+    overlay.camera_intrinsics = intrinsics_;
     overlay.text_lines = text;
     return overlay;
-  };
+  }
+
   // Active models are drawn; inactive ones are out of view by definition.
-  const auto model_views = [&] {
+  std::vector<renderer::ModelView> model_views() const {
     std::vector<renderer::ModelView> views;
-    for (const auto& m : slam.models())
+    for (const auto& m : slam_.models())
       if (m.state == slam::ModelState::kActive)
         views.push_back({m.model->surfels(), m.model->count(), m.id, m.model->T_world_model});
     return views;
-  };
-  const auto clouds = [&](bool active_only) {
+  }
+
+  std::vector<SurfelCloud> clouds(bool active_only) {
     std::vector<SurfelCloud> out;
-    for (const auto& m : slam.models()) {
+    for (const auto& m : slam_.models()) {
       if (active_only && m.state != slam::ModelState::kActive) continue;
       SurfelCloud cloud;
       cloud.model_id = m.id;
       cloud.class_name = m.class_name;
       cloud.T_world_model = m.model->T_world_model;
-      cloud.surfels = m.model->download(slam.stream());
+      cloud.surfels = m.model->download(slam_.stream());
       out.push_back(std::move(cloud));
     }
     return out;
-  };
-  const auto boxes = [](const std::vector<SurfelCloud>& models) {
+  }
+
+  static std::vector<renderer::ModelBox> boxes(const std::vector<SurfelCloud>& models) {
     std::vector<renderer::ModelBox> out;
     for (const auto& cloud : models) {
       if (cloud.surfels.empty()) continue;
@@ -337,169 +465,128 @@ int run(const RunOptions& o) {
       out.back().label = renderer::model_label(cloud.model_id, cloud.class_name);
     }
     return out;
-  };
-  std::string status;
-  const auto show = [&] {
+  }
+
+  void show() {
     const auto views = model_views();
     renderer::Overlay overlay = make_overlay({});
     // The boxes need the surfel centres on the host: a read-back of the models (a few ms).
     overlay.boxes = boxes(clouds(true));
-    viewer->frame(slam.stream(), *view_renderer, views, overlay, status);
-  };
-  try {
-    while (true) {
-      if (const int signal = stop_signals.requested()) {
-        stop_reason = StopSignals::name(signal);
-        progress.message(stop_reason + ": stopping after " + std::to_string(frames) +
-                         " frames; writing their outputs (a second " + stop_reason + " ends at once)");
-        break;
-      }
-      if (viewer) {
-        // Space pauses, N runs one frame, Q quits; the window stays live while paused.
-        while (viewer->state().paused && !viewer->state().step_requested && !viewer->state().quit_requested &&
-               viewer->poll())
-          show();
-        if (viewer->state().quit_requested || !viewer->poll()) break;
-        viewer->state().step_requested = false;
-      }
-      std::optional<Frame> frame;
-      {
-        ScopedStage s(times, "read");
-        frame = gate.next();
-      }
-      if (!frame) break;
-      if (gate.skipped().size() > skipped_before && !timestamps.empty() &&
-          frame->timestamp_s - timestamps.back() > o.frame_gate.relocalise_after_gap_s)
-        slam.note_gap();  // a long gap: relocalise across it
-      skipped_before = gate.skipped().size();
-      const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
-      const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
-      slam::CoFusionFrame r = slam.process(depth.ptr<float>(), rgb.data, masks.for_frame(*frame, rgb, depth));
-      for (const auto& [stage, ms] : r.stage_ms) times.add(stage, ms);
-      if (r.frame > 0 && config.motion_segmentation) {
-        times.add("superpixels (CPU)", r.superpixels_ms);
-        times.add("superpixels overlapped with GPU", r.superpixels_overlap_ms);
-      }
-      camera.push_back({frame->timestamp_s, r.T_world_camera});
-      if (frame->T_world_camera_gt) groundtruth.push_back({frame->timestamp_s, *frame->T_world_camera_gt});
-      timestamps.push_back(frame->timestamp_s);
-      ++frames;  // processed: its pose is in the trajectory
-      output_folder.keep();  // from the first processed frame on, the run has output to write
-      T_world_camera_last = r.T_world_camera;
-      if (r.camera_state == slam::CameraState::kLost) {
-        failed_frames.push_back(frame->index);
-        progress.message("frame " + std::to_string(frame->index) + ": camera lost (" +
-                         r.camera_tracking.failure_reason + "); pose not updated, frame not fused");
-      } else if (r.camera_state == slam::CameraState::kRecovered) {
-        recovered_frames.push_back(frame->index);
-      }
-      for (const auto& e : r.events) {
-        progress.message(e);
-        events.push_back(e);
-      }
-      if (o.save_segmentation) write_label_image(out_dir / "segmentation", *frame, r.labels);
-      unsigned surfels = 0;
-      for (const auto& m : r.active) surfels += m.surfels;
-      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      progress.update({.processed = frames,
-                       .read = frame->index + 1,
-                       .total = total_frames,
-                       .fps = frames / elapsed,
-                       .models = r.active.size(),
-                       .surfels = surfels,
-                       .inlier_ratio = r.camera_tracking.inlier_ratio,
-                       .camera_state = slam::to_string(r.camera_state)});
-      if (viewer || !o.screenshot.empty()) {
-        last_frame = *frame;
-        last_labels = std::move(r.labels);
-      }
-      if (viewer) {
-        char line[160];
-        std::snprintf(line, sizeof line, "frame %d  %.1f fps  models %zu  surfels %u  camera %s", frames,
-                      frames / elapsed, r.active.size(), surfels, slam::to_string(r.camera_state));
-        status = line;
-        show();
-      }
-    }
-  } catch (const std::exception& e) {
-    if (frames == 0) throw;  // nothing to keep
-    fault = std::current_exception();
-    stop_reason = std::string("error: ") + e.what();
-    progress.message("error after " + std::to_string(frames) + " frames: " + e.what() +
-                         "\nwriting the outputs of those frames", stderr);
+    viewer_->frame(slam_.stream(), *view_renderer_, views, overlay, status_);
   }
-  progress.finish();
-  if (frames == 0 && !stop_reason.empty()) throw Error(stop_reason + " before the first frame; nothing written");
-  if (frames == 0) throw Error("input " + o.input + " has no frames");
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (!fault && ctx.validation_error_count() > 0)
-    throw Error(std::to_string(ctx.validation_error_count()) + " Vulkan validation errors (see above)");
+
   // After a fault each output is attempted on its own (the device may be lost, the disk full):
   // what can be written is, and the failures are listed in summary.json.
-  std::vector<std::string> output_errors;
-  const auto attempt = [&](const char* what, const auto& write) {
-    if (!fault) return write();
+  template <typename Write>
+  void attempt(const char* what, const Write& write) {
+    if (!fault_) return write();
     try {
       write();
     } catch (const std::exception& e) {
-      output_errors.push_back(std::string(what) + ": " + e.what());
+      output_errors_.push_back(std::string(what) + ": " + e.what());
       std::fprintf(stderr, "cannot write %s: %s\n", what, e.what());
     }
-  };
+  }
 
-  attempt("trajectories/camera.txt", [&] { write_tum_trajectory(out_dir / "trajectories" / "camera.txt", camera); });
-  const std::vector<slam::ModelSnapshot> snapshots = slam.models();
-  bool model_trajectories_written = false;
-  attempt("the model trajectories", [&] {
+  void write_model_trajectories(const std::vector<slam::ModelSnapshot>& snapshots) {
     for (const auto& m : snapshots) {
       if (m.id == 0) continue;
       Trajectory trajectory;
       for (const auto& [frame_index, T_world_model] : m.trajectory)
-        trajectory.push_back({timestamps.at(static_cast<size_t>(frame_index)), T_world_model});
-      write_tum_trajectory(out_dir / "trajectories" / ("model-" + std::to_string(m.id) + ".txt"), trajectory);
+        trajectory.push_back({timestamps_.at(static_cast<size_t>(frame_index)), T_world_model});
+      write_tum_trajectory(out_dir_ / "trajectories" / ("model-" + std::to_string(m.id) + ".txt"), trajectory);
     }
-    model_trajectories_written = true;
-  });
-  if (o.save_segmentation)
-    attempt("segmentation/classes.txt",
-            [&] { write_segmentation_classes(out_dir / "segmentation" / kInstanceClassesFile, snapshots); });
-  std::vector<SurfelCloud> all_models;  // stays empty when the device cannot hand the models back
-  std::vector<fs::path> model_files;
-  attempt("the models", [&] {
-    all_models = clouds(false);
-    model_files = write_models(all_models, camera, out_dir);
-  });
-  const std::optional<CameraAccuracy> accuracy = camera_accuracy(groundtruth, camera);
-  size_t total_surfels = 0;
-  for (const auto& cloud : all_models) total_surfels += cloud.surfels.size();
-  if (!o.screenshot.empty())
-    attempt("the screenshot", [&] {
-      const auto views = model_views();
-      const renderer::VirtualCamera view =
-          viewer ? viewer->camera(T_world_camera_last) : overview_camera(intrinsics, T_world_camera_last);
-      renderer::Image image = view_renderer->render(slam.stream(), views, view, renderer::RenderParams{});
-      char line[160];
-      std::snprintf(line, sizeof line, "frame %d  models %zu  surfels %zu", frames, views.size(), total_surfels);
-      renderer::Overlay overlay = make_overlay({line});
-      overlay.boxes = boxes(clouds(true));
-      renderer::draw_overlay(image, view, overlay);
-      const std::vector<uint8_t> png = renderer::encode_png(image);
-      write_bytes_atomically(o.screenshot, std::as_bytes(std::span(png)));
-    });
+  }
 
-  SummaryInputs facts{frames, stop_reason, seconds, ctx.description(), source->describe(), gate.skipped(),
-                      source->dropped_frames(), output_errors, times, failed_frames, recovered_frames, accuracy,
-                      snapshots, all_models, events, params.semantic, masks.source(), masks.detector()};
-  write_text_atomically(out_dir / "summary.json", summary_json(facts).dump(2) + "\n");
-  std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures, %zu frames skipped; "
-              "wrote %s%s\n",
-              frames, seconds, frames / seconds, snapshots.size(), total_surfels, failed_frames.size(),
-              gate.skipped().size(), out_dir.c_str(), stop_reason.empty() ? "" : " (incomplete)");
-  const auto rows = model_rows(snapshots, all_models, model_files, out_dir, model_trajectories_written);
-  std::printf("%s%s", model_table(rows).c_str(), report_footer(out_dir, accuracy).c_str());
-  if (fault) std::rethrow_exception(fault);
-  // Stopped by a signal: the shell's convention for it, 128 + the signal number.
-  return stop_signals.requested() ? 128 + stop_signals.requested() : 0;
+  void write_screenshot(size_t total_surfels) {
+    const auto views = model_views();
+    const renderer::VirtualCamera view =
+        viewer_ ? viewer_->camera(T_world_camera_last_) : overview_camera(intrinsics_, T_world_camera_last_);
+    renderer::Image image = view_renderer_->render(slam_.stream(), views, view, renderer::RenderParams{});
+    char line[160];
+    std::snprintf(line, sizeof line, "frame %d  models %zu  surfels %zu", frames_, views.size(), total_surfels);
+    renderer::Overlay overlay = make_overlay({line});
+    overlay.boxes = boxes(clouds(true));
+    renderer::draw_overlay(image, view, overlay);
+    const std::vector<uint8_t> png = renderer::encode_png(image);
+    write_bytes_atomically(o_.screenshot, std::as_bytes(std::span(png)));
+  }
+
+  void write_outputs() {
+    const double seconds = elapsed_s();
+    attempt("trajectories/camera.txt", [&] { write_tum_trajectory(out_dir_ / "trajectories" / "camera.txt", camera_); });
+    const std::vector<slam::ModelSnapshot> snapshots = slam_.models();
+    bool model_trajectories_written = false;
+    attempt("the model trajectories", [&] {
+      write_model_trajectories(snapshots);
+      model_trajectories_written = true;
+    });
+    if (o_.save_segmentation)
+      attempt("segmentation/classes.txt",
+              [&] { write_segmentation_classes(out_dir_ / "segmentation" / kInstanceClassesFile, snapshots); });
+    std::vector<SurfelCloud> all_models;  // stays empty when the device cannot hand the models back
+    std::vector<fs::path> model_files;
+    attempt("the models", [&] {
+      all_models = clouds(false);
+      model_files = write_models(all_models, camera_, out_dir_);
+    });
+    const std::optional<CameraAccuracy> accuracy = camera_accuracy(groundtruth_, camera_);
+    size_t total_surfels = 0;
+    for (const auto& cloud : all_models) total_surfels += cloud.surfels.size();
+    if (!o_.screenshot.empty()) attempt("the screenshot", [&] { write_screenshot(total_surfels); });
+
+    SummaryInputs facts{frames_, stop_reason_, seconds, ctx_.description(), source_->describe(), gate_.skipped(),
+                        source_->dropped_frames(), output_errors_, times_, failed_frames_, recovered_frames_, accuracy,
+                        snapshots, all_models, events_, params_.semantic, masks_.source(), masks_.detector()};
+    write_text_atomically(out_dir_ / "summary.json", summary_json(facts).dump(2) + "\n");
+    std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures, %zu frames skipped; "
+                "wrote %s%s\n",
+                frames_, seconds, frames_ / seconds, snapshots.size(), total_surfels, failed_frames_.size(),
+                gate_.skipped().size(), out_dir_.c_str(), stop_reason_.empty() ? "" : " (incomplete)");
+    const auto rows = model_rows(snapshots, all_models, model_files, out_dir_, model_trajectories_written);
+    std::printf("%s%s", model_table(rows).c_str(), report_footer(out_dir_, accuracy).c_str());
+  }
+
+  const RunOptions& o_;
+  const PipelineConfig config_;
+  const slam::CoFusionParams params_;
+  std::unique_ptr<FrameSource> source_;
+  const Intrinsics intrinsics_;
+  const fs::path out_dir_;
+  OutputFolder output_folder_;  // taken away again unless a frame is processed: a failed start leaves nothing
+  gpu::Context ctx_;
+  std::unique_ptr<renderer::ViewRenderer> view_renderer_;
+  std::unique_ptr<renderer::Viewer> viewer_;
+  slam::CoFusion slam_;
+  FrameMasks masks_;  // where the instance masks come from, decided at the first frame
+  FrameGate gate_;
+  const StopSignals stop_signals_;
+  ProgressPrinter progress_;
+  const std::optional<int> total_frames_;
+
+  std::chrono::steady_clock::time_point start_;
+  StageTimes times_;
+  Trajectory camera_;
+  Trajectory groundtruth_;  // the input's camera poses of the processed frames, where it has them
+  std::vector<double> timestamps_;  // per processed frame, for the model trajectories
+  std::vector<int> failed_frames_;     // lost: camera tracking failed or not yet relocalised
+  std::vector<int> recovered_frames_;  // relocalised after a loss
+  std::vector<std::string> events_;
+  std::vector<std::string> output_errors_;
+  size_t skipped_before_ = 0;  // gate_.skipped() at the previous frame
+  std::string stop_reason_;  // why the run ended before its input did; empty when it did not
+  std::exception_ptr fault_;  // the error that ended the run after its first frame
+  int frames_ = 0;
+  Pose T_world_camera_last_ = Pose::Identity();
+  std::optional<Frame> last_frame_;  // shares the pixels; insets are made only when drawn
+  std::vector<uint16_t> last_labels_;
+  std::string status_;
+};
+
+int run(const RunOptions& o) {
+  if (handle_list_devices(o.gpu)) return 0;
+  RunSession session(o);
+  return session.run();
 }
 
 // --max-frames: a whole number >= 1, said in one line (CLI11's PositiveNumber prints its range
