@@ -92,7 +92,7 @@ struct CoFusion::Model {
   TrackingResult tracking;
   Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();       // T_reference_live of this frame
   Eigen::Isometry3d last_motion = Eigen::Isometry3d::Identity();  // previous frame's, the guess
-  bool guess_from_centroid_step = false;  // last_motion is its spawn region's centroid step
+  bool guess_from_centroid_step = false;  // last_motion is its region's centroid step (spawn, re-activation)
   // The live frame in the view its prediction was made from: the residuals' transform (`motion`,
   // except after a relocalisation, which predicts from the recovered pose).
   Eigen::Isometry3d T_prediction_live = Eigen::Isometry3d::Identity();

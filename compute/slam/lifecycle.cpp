@@ -379,8 +379,10 @@ void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& sl
     m.on_probation = false;
     if (seen[k].previous_centroid) {
       const Eigen::Vector3d step = *centroids[k] - *seen[k].previous_centroid;
-      if (step.norm() <= params_.lifecycle.spawn_max_velocity_guess_m)
+      if (step.norm() <= params_.lifecycle.spawn_max_velocity_guess_m) {
         m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
+        m.guess_from_centroid_step = true;
+      }
     }
     m.pixels = int(uncovered[k]->pixels.size());
     m.class_votes.add(uncovered[k]->class_name);

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include <opencv2/imgproc.hpp>
+
 #include "common/error.h"
 
 namespace cofusion::slam {
@@ -52,38 +54,14 @@ size_t excluded_pixels(const SemanticFrame& frame, const SemanticParams& params,
   return count;
 }
 
-namespace {
-// One pass of a separable maximum filter: out[i] = any of in[i - r*stride ... i + r*stride] along
-// lines of `length` pixels starting at `starts` (stride apart within a line).
-void grow_lines(const std::vector<uint8_t>& in, std::vector<uint8_t>& out, int lines, int length, size_t line_step,
-                size_t stride, int r) {
-  for (int l = 0; l < lines; ++l) {
-    const size_t start = size_t(l) * line_step;
-    int last = -(r + 1) - 1;  // position of the last set pixel seen, or far before the line
-    // Forward: within r after a set pixel; backward: within r before one.
-    for (int k = 0; k < length; ++k) {
-      if (in[start + size_t(k) * stride]) last = k;
-      out[start + size_t(k) * stride] = k - last <= r;
-    }
-    int next = length + r + 1;
-    for (int k = length - 1; k >= 0; --k) {
-      if (in[start + size_t(k) * stride]) next = k;
-      if (next - k <= r) out[start + size_t(k) * stride] = 1;
-    }
-  }
-}
-}  // namespace
-
 size_t grow_mask(std::vector<uint8_t>& mask, int width, int radius_px) {
   if (mask.empty() || width <= 0 || mask.size() % size_t(width) != 0)
     throw Error("grow_mask: mask size is not a multiple of the width");
-  const int height = int(mask.size() / size_t(width));
-  if (radius_px > 0) {
-    std::vector<uint8_t> rows(mask.size());
-    grow_lines(mask, rows, height, width, size_t(width), 1, radius_px);  // along each row
-    grow_lines(rows, mask, width, height, 1, size_t(width), radius_px);  // along each column
-  }
-  return size_t(std::count_if(mask.begin(), mask.end(), [](uint8_t v) { return v != 0; }));
+  cv::Mat image(int(mask.size() / size_t(width)), width, CV_8UC1, mask.data());  // shares mask's pixels
+  if (radius_px > 0)
+    cv::dilate(image, image, cv::getStructuringElement(cv::MORPH_RECT, {2 * radius_px + 1, 2 * radius_px + 1}),
+               {-1, -1}, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  return size_t(cv::countNonZero(image));
 }
 
 bool mark_excluded(const std::vector<uint8_t>& excluded, uint8_t value, std::vector<uint8_t>& labels) {
