@@ -292,6 +292,16 @@ PipelineConfig load_config(const std::filesystem::path& path) {
         !(config.rest.min_correspondence_fraction >= 0 && config.rest.min_correspondence_fraction <= 1))
       throw Error(q.where() + ": max_cost_increase must be >= 0 and min_correspondence_fraction in [0, 1]");
   });
+  s.section("camera_check", file + ": camera_check", [&](Section& q) {
+    q.field("enabled", config.camera_check.enabled)
+        .field("step_px", config.camera_check.step_px)
+        .field("tolerance_rel", config.camera_check.tolerance_rel)
+        .field("tolerance_m", config.camera_check.tolerance_m)
+        .field("min_fit_ratio", config.camera_check.min_fit_ratio);
+    const auto& c = config.camera_check;
+    if (c.step_px < 1 || !(c.tolerance_rel >= 0) || !(c.tolerance_m >= 0) || !(c.min_fit_ratio >= 0 && c.min_fit_ratio <= 1))
+      throw Error(q.where() + ": step_px must be >= 1, tolerances >= 0 and min_fit_ratio in [0, 1]");
+  });
   s.reject_unknown();
   return config;
 }

@@ -19,6 +19,7 @@ struct PipelineConfig {
   slam::MotionCostParams costs;
   slam::LifecycleParams lifecycle;
   slam::RestParams rest;
+  slam::CameraCheckParams camera_check;
   slam::SemanticParams semantic;  // thresholds only: mode and classes come from the command line
   bool motion_segmentation = true;
 
@@ -31,6 +32,7 @@ struct PipelineConfig {
     p.costs = costs;
     p.lifecycle = lifecycle;
     p.rest = rest;
+    p.camera_check = camera_check;
     p.semantic = semantic;
     p.motion_segmentation = motion_segmentation;
     return p;

@@ -59,6 +59,7 @@ const char* to_string(CameraState state) {
     case CameraState::kTracking: return "tracking";
     case CameraState::kLost: return "lost";
     case CameraState::kRecovered: return "recovered";
+    case CameraState::kRefused: return "refused";
   }
   return "?";
 }
@@ -75,6 +76,7 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
       motion_(ctx),
       segmenter_(params.segmentation),
       live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "live")),
+      previous_live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "previous live")),
       keyframes_(params.relocalisation.keyframes) {
   for (const auto& [counts, name] : {std::pair{&params.slam.tracker.iterations_per_level, "tracker"},
                                       std::pair{&params.lifecycle.object_iterations_per_level,
@@ -380,7 +382,7 @@ void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, con
   for (int duplicate_slot : duplicate_slots)
     surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(duplicate_slot),
                            params_.lifecycle.duplicate_margin_rel);
-  if (m.tracking.failed) return;  // a guessed pose would corrupt the model
+  if (m.tracking.failed || m.motion_refused) return;  // a guessed pose would corrupt the model
   const FusionStats stats =
       surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
                     params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
@@ -415,7 +417,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
     lap = now;
   };
   std::vector<Model*> active = live_models();
-  for (Model* m : active) m->tracked = false, m->settled = false, m->tracking = {};
+  for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {};
   set_work_rects(active);
   live_.upload(main_stream_, depth_m, rgb);
   stage("upload");
@@ -451,7 +453,9 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   if (frame_ > 0 && !lost_) {
     for_each_model(active, [&](Model& m) { predict_model(m, preprocessed); });
     stage("predict");
-    camera = track_models(active);
+    std::string refusal;
+    camera = track_models(active, depth_m, refusal);
+    if (!refusal.empty()) out.events.push_back("frame " + std::to_string(frame_) + ": " + refusal);
     stage("track");
   } else if (frame_ > 0) {
     camera = relocalise(bg, encoding, keyframes_.features(rgb, depth_m, intrinsics_)) ? CameraState::kRecovered
@@ -520,8 +524,9 @@ void CoFusion::for_each_model(const std::vector<Model*>& models, const Work& wor
 }
 
 // Tracks every active model; when the camera's (the background's) tracking fails the camera is
-// lost and every model holds still, else each model's residuals are computed.
-CameraState CoFusion::track_models(const std::vector<Model*>& active) {
+// lost and every model holds still, else the camera's motion is checked against the previous
+// frame (`refusal` says why when it is refused) and each model's residuals are computed.
+CameraState CoFusion::track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal) {
   Model& bg = *active.front();
   for_each_model(active, [&](Model& m) { track_model(m); });
   if (bg.tracking.failed) {
@@ -529,9 +534,45 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active) {
     hold_still(active, bg.tracking.failure_reason);
     return CameraState::kLost;
   }
+  refusal = check_camera_motion(bg, depth_m);
   const Eigen::Isometry3d camera_motion = bg.motion;
   for_each_model(active, [&](Model& m) { settle_model(m, camera_motion); });
-  return CameraState::kTracking;
+  return refusal.empty() ? CameraState::kTracking : CameraState::kRefused;
+}
+
+// CameraCheckParams: the background's tracked motion against the previous frame's depth. A refused
+// motion is replaced by the live frame's alignment with the previous frame, started from the
+// better of the constant-velocity guess and no motion (or by that start itself where it fits
+// better), and the background fuses nothing this frame. Returns why (empty when it stands).
+std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m) {
+  const CameraCheckParams& p = params_.camera_check;
+  if (!p.enabled || previous_depth_m_.empty()) return {};
+  const auto fit = [&](const Eigen::Isometry3d& T) { return depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, T, p); };
+  const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? bg.last_motion : Eigen::Isometry3d::Identity();
+  const double tracked = fit(bg.motion), by_guess = fit(guess), still = fit(Eigen::Isometry3d::Identity());
+  if (tracked >= p.min_fit_ratio * std::max(by_guess, still)) return {};
+  const Eigen::Isometry3d start = by_guess >= still ? guess : Eigen::Isometry3d::Identity();
+  const TrackingResult odometry = track_previous_frame(bg, start);
+  const double start_fit = std::max(by_guess, still), odometry_fit = odometry.failed ? 0.0 : fit(odometry.T_reference_live);
+  const bool aligned = odometry_fit > start_fit;
+  bg.motion = aligned ? odometry.T_reference_live : start;
+  bg.motion_refused = true;
+  const auto percent = [](double share) { return std::to_string(int(std::lround(100 * share))) + "%"; };
+  const std::string taken = aligned ? "the alignment with the previous frame " + percent(odometry_fit)
+                                    : (by_guess >= still ? "the constant-velocity guess " : "no motion ") + percent(start_fit);
+  return "camera motion refused: it fits " + percent(tracked) + " of the previous frame's depth, " + taken +
+         "; that is taken and nothing is fused into the background";
+}
+
+// The live frame (as the background tracks it: movers masked) aligned with the previous frame's
+// pyramid, which is made here from its depth and colour.
+TrackingResult CoFusion::track_previous_frame(Model& bg, const Eigen::Isometry3d& guess) {
+  previous_live_.upload(main_stream_, previous_depth_m_.data(), previous_rgb_.data());
+  gpu::CommandList c = main_stream_.begin();
+  preprocessor_.record_frame(c, previous_live_, kernels::FramePyramid::kUploadMetresPerUnit, preprocess_);
+  main_stream_.wait(main_stream_.submit(std::move(c)));
+  const auto& live = params_.motion_segmentation ? bg.masked : live_.levels;
+  return bg.tracker.track(bg.stream, live, previous_live_.levels, guess, bg.track_rect);
 }
 
 // Poses: the background's motion is the camera's; every other model's follows from its own.
@@ -620,6 +661,8 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
     recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
   }
+  previous_depth_m_.assign(depth_m, depth_m + n);
+  previous_rgb_.assign(rgb, rgb + 3 * n);
   ++frame_;
   semantic_ = nullptr;  // the caller's, valid during process() only
 }

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "segmentation/motion_segmentation.h"
+#include "slam/camera_check.h"
 #include "slam/dense_slam.h"
 #include "slam/keyframe_database.h"
 #include "slam/motion_kernels.h"
@@ -237,6 +238,7 @@ struct CoFusionParams {
   LifecycleParams lifecycle;
   RestParams rest;
   RelocalisationParams relocalisation;
+  CameraCheckParams camera_check;
   // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
   bool motion_segmentation = true;
   // Instance masks (process()'s `semantic`): excluded classes, segmentation mode.
@@ -269,8 +271,10 @@ struct ModelStatus {
 };
 
 // The camera's tracking this frame: tracked; lost (tracking failed, or relocalisation has not
-// succeeded yet: pose not updated, nothing fused); recovered (relocalised this frame).
-enum class CameraState { kTracking, kLost, kRecovered };
+// succeeded yet: pose not updated, nothing fused); recovered (relocalised this frame); refused
+// (the tracked motion contradicted the previous frame's depth, CameraCheckParams: the better of
+// the constant-velocity guess and no motion is taken, nothing is fused into the background).
+enum class CameraState { kTracking, kLost, kRecovered, kRefused };
 const char* to_string(CameraState state);
 
 struct CoFusionFrame {
@@ -345,7 +349,9 @@ class CoFusion {
   void set_work_rects(const std::vector<Model*>& active);
   template <typename Work>
   static void for_each_model(const std::vector<Model*>& models, const Work& work);
-  CameraState track_models(const std::vector<Model*>& active);
+  CameraState track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal);
+  std::string check_camera_motion(Model& bg, const float* depth_m);
+  TrackingResult track_previous_frame(Model& bg, const Eigen::Isometry3d& guess);
   void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);
   void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
                const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
@@ -409,6 +415,11 @@ class CoFusion {
   MotionKernels motion_;
   segmentation::MotionSegmenter segmenter_;
   kernels::FramePyramid live_;
+  // The previous frame (CameraCheckParams): its depth and colour, and its pyramid, made from them
+  // only when a refused motion is replaced by an alignment with it.
+  std::vector<float> previous_depth_m_;
+  std::vector<uint8_t> previous_rgb_;
+  kernels::FramePyramid previous_live_;
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels

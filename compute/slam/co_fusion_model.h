@@ -93,6 +93,7 @@ struct CoFusion::Model {
   Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();       // T_reference_live of this frame
   Eigen::Isometry3d last_motion = Eigen::Isometry3d::Identity();  // previous frame's, the guess
   bool guess_from_centroid_step = false;  // last_motion is its region's centroid step (spawn, re-activation)
+  bool motion_refused = false;  // the background's tracked motion was refused: nothing is fused
   // The live frame in the view its prediction was made from: the residuals' transform (`motion`,
   // except after a relocalisation, which predicts from the recovered pose).
   Eigen::Isometry3d T_prediction_live = Eigen::Isometry3d::Identity();

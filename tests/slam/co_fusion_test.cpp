@@ -116,6 +116,8 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
   const double camera_ate = eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse;
   ::testing::Test::RecordProperty("camera_ate_m", std::to_string(camera_ate));
   EXPECT_LE(camera_ate, 0.01);
+  // The camera's tracked motion always agrees with the previous frame here (CameraCheckParams).
+  for (const auto& f : r.frames) EXPECT_NE(f.camera_state, slam::CameraState::kRefused) << "frame " << f.frame;
 
   // Discovery: a model covering the object (IoU >= 0.5) within 10 frames of it being separable.
   std::map<int, int> model_of;  // gt object id -> model id
@@ -412,6 +414,7 @@ TEST_F(CoFusionScenes, StaticRoomSpawnsNoModel) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("static_room"), 0, 30);
   const SceneRun r = run(seq);
   for (const auto& f : r.frames) EXPECT_EQ(f.active.size(), 1u) << "frame " << f.frame;
+  for (const auto& f : r.frames) EXPECT_EQ(f.camera_state, slam::CameraState::kTracking) << "frame " << f.frame;
   EXPECT_TRUE(r.events.empty()) << r.events.front();
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.005);
 }

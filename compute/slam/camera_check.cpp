@@ -1,0 +1,30 @@
+#include "slam/camera_check.h"
+
+#include <cmath>
+
+namespace cofusion::slam {
+
+double depth_fit(const float* depth_live_m, const float* depth_reference_m, const Intrinsics& intrinsics,
+                 const Eigen::Isometry3d& T_reference_live, const CameraCheckParams& params) {
+  const int w = intrinsics.width, h = intrinsics.height, step = std::max(1, params.step_px);
+  const Eigen::Matrix3d R = T_reference_live.linear();
+  const Eigen::Vector3d t = T_reference_live.translation();
+  long with_depth = 0, fitting = 0;
+  for (int y = 0; y < h; y += step)
+    for (int x = 0; x < w; x += step) {
+      const float z = depth_live_m[size_t(y) * size_t(w) + size_t(x)];
+      if (!(z > 0.0f)) continue;  // also NaN
+      ++with_depth;
+      const Eigen::Vector3d p((x - intrinsics.cx) * z / intrinsics.fx, (y - intrinsics.cy) * z / intrinsics.fy, z);
+      const Eigen::Vector3d q = R * p + t;
+      if (!(q.z() > 0.0)) continue;
+      const double u = std::round(intrinsics.fx * q.x() / q.z() + intrinsics.cx);
+      const double v = std::round(intrinsics.fy * q.y() / q.z() + intrinsics.cy);
+      if (!(u >= 0.0 && v >= 0.0 && u < w && v < h)) continue;
+      const float z_ref = depth_reference_m[size_t(v) * size_t(w) + size_t(u)];
+      if (z_ref > 0.0f && std::abs(double(z_ref) - q.z()) <= params.tolerance_rel * q.z() + params.tolerance_m) ++fitting;
+    }
+  return with_depth > 0 ? double(fitting) / double(with_depth) : 0.0;
+}
+
+}  // namespace cofusion::slam

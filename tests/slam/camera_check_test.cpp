@@ -1,0 +1,89 @@
+// The camera-motion check's depth fit (slam/camera_check.h) on a ray-cast room.
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/se3.h"
+#include "slam/camera_check.h"
+
+namespace cofusion::slam {
+namespace {
+
+// Depth (camera z, metres) of a room seen from T_world_camera: a back wall at z = 3, a floor at
+// y = 1, a side wall at x = -1.5 and a box face at z = 2 for x in [0.2, 0.8], y in [-0.2, 0.4].
+std::vector<float> room_depth(const Intrinsics& k, const Eigen::Isometry3d& T_world_camera) {
+  std::vector<float> depth(size_t(k.width) * size_t(k.height), 0.0f);
+  const Eigen::Vector3d o = T_world_camera.translation();
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x) {
+      const Eigen::Vector3d ray_c((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0);  // z = 1 in the camera
+      const Eigen::Vector3d d = T_world_camera.linear() * ray_c;
+      double best = std::numeric_limits<double>::infinity();
+      const auto hit = [&](int axis, double at, auto&& inside) {
+        if (std::abs(d[axis]) < 1e-9) return;
+        const double s = (at - o[axis]) / d[axis];
+        if (s > 0 && s < best && inside(o + s * d)) best = s;
+      };
+      hit(2, 3.0, [](const Eigen::Vector3d&) { return true; });
+      hit(1, 1.0, [](const Eigen::Vector3d&) { return true; });
+      hit(0, -1.5, [](const Eigen::Vector3d&) { return true; });
+      hit(2, 2.0, [](const Eigen::Vector3d& p) { return p.x() >= 0.2 && p.x() <= 0.8 && p.y() >= -0.2 && p.y() <= 0.4; });
+      if (std::isfinite(best)) depth[size_t(y) * size_t(k.width) + size_t(x)] = float(best);  // s is camera z
+    }
+  return depth;
+}
+
+Eigen::Isometry3d motion(double tx, double ty, double tz, double yaw_deg) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(tx, ty, tz);
+  return T;
+}
+
+class DepthFit : public ::testing::Test {
+ protected:
+  Intrinsics k{.fx = 262.5, .fy = 262.5, .cx = 159.5, .cy = 119.5, .width = 320, .height = 240};
+  CameraCheckParams params;
+  // The reference camera at the origin, the live one moved by T_reference_live.
+  const Eigen::Isometry3d T_reference_live = motion(0.02, -0.01, 0.03, 1.5);
+  const std::vector<float> reference = room_depth(k, Eigen::Isometry3d::Identity());
+  const std::vector<float> live = room_depth(k, T_reference_live);
+};
+
+TEST_F(DepthFit, TheTrueMotionFitsAlmostEveryPixel) {
+  for (int step : {1, 4, 7}) {
+    params.step_px = step;
+    EXPECT_GT(depth_fit(live.data(), reference.data(), k, T_reference_live, params), 0.97) << "step " << step;
+  }
+}
+
+TEST_F(DepthFit, AJumpFitsFarLessThanTheTrueMotion) {
+  const double truth = depth_fit(live.data(), reference.data(), k, T_reference_live, params);
+  // Jumps like Bonn crowd's: 20-50 cm and 5-10 degrees away from the true motion. (A pure slide
+  // along the room's walls and floor, which depth cannot see, is what no depth test refuses.)
+  for (const Eigen::Isometry3d& error : {motion(-0.19, -0.07, -0.09, 10), motion(0, 0.2, 0.1, 0), motion(0, 0, 0, 8)}) {
+    const double jumped = depth_fit(live.data(), reference.data(), k, T_reference_live * error, params);
+    EXPECT_LT(jumped, params.min_fit_ratio * truth);
+  }
+  // A millimetre-scale error stays within the check's tolerance.
+  EXPECT_GT(depth_fit(live.data(), reference.data(), k, T_reference_live * motion(0.003, 0, 0.003, 0.1), params),
+            0.95 * truth);
+}
+
+TEST_F(DepthFit, PixelsWithoutDepthAreNotCounted) {
+  std::vector<float> holes = live;
+  for (size_t i = 0; i < holes.size(); i += 2) holes[i] = (i % 4 == 0) ? 0.0f : std::numeric_limits<float>::quiet_NaN();
+  params.step_px = 1;
+  EXPECT_GT(depth_fit(holes.data(), reference.data(), k, T_reference_live, params), 0.96);
+  const std::vector<float> none(live.size(), 0.0f);
+  EXPECT_EQ(depth_fit(none.data(), reference.data(), k, T_reference_live, params), 0.0);
+  // Without reference depth nothing fits; points moved behind the camera or out of view do not fit.
+  EXPECT_EQ(depth_fit(live.data(), none.data(), k, T_reference_live, params), 0.0);
+  EXPECT_EQ(depth_fit(live.data(), reference.data(), k, motion(0, 0, -10, 0), params), 0.0);
+  EXPECT_EQ(depth_fit(live.data(), reference.data(), k, motion(50, 0, 0, 0), params), 0.0);
+}
+
+}  // namespace
+}  // namespace cofusion::slam
