@@ -14,6 +14,7 @@
 #include "common/pixel_rect.h"
 #include "common/surfel_cloud.h"
 #include "gpu/stream.h"
+#include "kernels/compaction.h"
 #include "kernels/preprocess.h"
 #include "shared/host_device.h"
 #include "slam/surfel_params.h"
@@ -63,6 +64,8 @@ class SurfelModel {
   // Allocates (or grows) the per-fusion scratch for a live image of `pixels` pixels and an index
   // map of `index_map_cells` cells.
   void ensure_fusion_scratch(size_t pixels, size_t index_map_cells);
+  // The compaction's blocks buffer (kernels/compaction.h), grown to cover `elements`.
+  const gpu::BufferPtr& compaction_blocks(uint32_t elements);
 
   gpu::Context& ctx_;
   int id_;
@@ -80,6 +83,7 @@ class SurfelModel {
   gpu::BufferPtr index_map_;  // uint64 per cell of the supersampled index map
   gpu::BufferPtr assoc_;      // uint per live pixel
   gpu::BufferPtr no_labels_;  // bound in place of a label map when fusing without labels
+  gpu::BufferPtr blocks_;     // uint per block of new-surfel pixels or kept surfels (compaction)
 };
 
 // A model rendered into a camera view, as tracking's reference: per pyramid level the vertex
@@ -146,6 +150,7 @@ class SurfelPipelines {
   // Single kernels, as predict() and fuse() record them (for tests against the references).
   struct FuseBuffers {
     gpu::BufferPtr surfels, index_map, vertex, normal, rgb, assoc, claim, counter, labels;
+    gpu::BufferPtr blocks;  // update: CompactionScan::blocks_bytes(rectangle's pixels)
   };
   void splat(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& grid,
              const gpu_layout::SplatParams& p) const;
@@ -156,27 +161,33 @@ class SurfelPipelines {
   void subsample(gpu::CommandList& cmd, const kernels::FramePyramid::Level& src, const kernels::FramePyramid::Level& dst,
                  const std::optional<PixelRect>& rect = std::nullopt) const;
   void associate(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
+  // fuse_count_new, compaction_scan and fuse_update: new surfels from counter[0] on, in pixel order.
   void update(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
   struct MergeBuffers {
     gpu::BufferPtr surfels, index_map, target, claim, counter, labels;  // labels: any buffer without use_labels
   };
   void merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
   void merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
+  // cleanup and remove_region: both compaction passes and the scan between them; the kept surfels
+  // go to dst from counter[1] on (the caller sets it, usually to 0), in their order. `blocks`:
+  // CompactionScan::blocks_bytes(p.surfel_count). p.pass is set here.
   // With p.merge, `merge_target` and `merge_claim` are merge_select's and merge_claim's results;
-  // without, they are not read (null binds `counter` in their place).
+  // without, they are not read (null binds `src` in their place).
   void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, const gpu::BufferPtr& depth_m,
-               const gpu::BufferPtr& counter, const gpu_layout::CleanupParams& p,
+               const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks, gpu_layout::CleanupParams p,
                const gpu::BufferPtr& merge_target = nullptr, const gpu::BufferPtr& merge_claim = nullptr) const;
   void remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                      const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels, const gpu::BufferPtr& counter,
-                     const gpu_layout::RemoveRegionParams& p) const;
+                     const gpu::BufferPtr& blocks, gpu_layout::RemoveRegionParams p) const;
 
  private:
   const kernels::Preprocessor& preprocessor_;
   gpu::ComputePipeline splat_;
   gpu::ComputePipeline resolve_;
   gpu::ComputePipeline subsample_;
+  kernels::CompactionScan scan_;
   gpu::ComputePipeline associate_;
+  gpu::ComputePipeline count_new_;
   gpu::ComputePipeline update_;
   gpu::ComputePipeline merge_select_;
   gpu::ComputePipeline merge_claim_;
