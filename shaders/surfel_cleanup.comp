@@ -1,12 +1,12 @@
 #version 460
-// Keeps the surfels worth keeping and compacts them, in their order, into the other buffer:
-// unstable surfels (confidence below stable_confidence) not confirmed within the window go;
-// surfels the live depth shows to be in free space (well in front of the observed surface) lose
-// confidence and go once it reaches zero, so stale geometry of moved objects disappears. With
-// p.merge, the merges surfel_merge_select/claim chose are applied first: the source is dropped,
-// its target absorbs it (shared/surfel_merge.glsl). Two passes of a stable compaction
-// (host_device.h): COMPACTION_PASS_COUNT counts each block's kept surfels, COMPACTION_PASS_WRITE
-// (after compaction_scan) decides again and writes them.
+// Decides which surfels stay: unstable surfels (confidence below stable_confidence) not confirmed
+// within the window go; surfels the live depth shows to be in free space (well in front of the
+// observed surface) lose confidence and go once it reaches zero, so stale geometry of moved
+// objects disappears. With p.merge, the merges surfel_merge_select/claim chose are applied first:
+// the source is dropped, its target absorbs it (shared/surfel_merge.glsl). The counting pass of a
+// stable compaction (host_device.h): each kept surfel, as it stays, goes to `decided` at its own
+// index, and the block's kept count and keep mask to `blocks` and `keep_mask`; after
+// compaction_scan, surfel_compact copies the kept ones into place without deciding again.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
@@ -15,12 +15,13 @@
 #include "shared/compaction.glsl"
 layout(local_size_x = COMPACTION_BLOCK) in;
 layout(binding = CLEANUP_BINDING_SRC) uniform usamplerBuffer src;  // texel view
-layout(std430, binding = CLEANUP_BINDING_DST) writeonly buffer Dst { Surfel dst[]; };
+layout(std430, binding = CLEANUP_BINDING_DECIDED) writeonly buffer Decided { Surfel decided[]; };
 layout(binding = CLEANUP_BINDING_DEPTH) uniform usamplerBuffer depth_m;  // texel view of float metres
 layout(std430, binding = CLEANUP_BINDING_COUNTER) readonly buffer Counter { uint counter[]; };
 layout(binding = CLEANUP_BINDING_MERGE_TARGET) uniform usamplerBuffer merge_target;  // texel view of uint
 layout(binding = CLEANUP_BINDING_MERGE_CLAIM) uniform usamplerBuffer merge_claim;    // texel view of uint
-layout(std430, binding = CLEANUP_BINDING_BLOCKS) buffer Blocks { uint blocks[]; };
+layout(std430, binding = CLEANUP_BINDING_BLOCKS) writeonly buffer Blocks { uint blocks[]; };
+layout(std430, binding = CLEANUP_BINDING_KEEP_MASK) writeonly buffer KeepMask { uint keep_mask[]; };
 layout(push_constant) uniform Push { CleanupParams p; };
 
 // Whether surfel i stays; `s` gets it as it stays (merged, free-space penalty applied).
@@ -53,11 +54,10 @@ void main() {
   const uint i = gl_GlobalInvocationID.x;
   Surfel s;
   const bool keep = i < min(p.surfel_count, counter[0]) && kept(i, s);
+  if (keep) decided[i] = s;
   uint block_total;
-  const uint rank = compaction_rank(keep, block_total);
-  if (p.pass == COMPACTION_PASS_COUNT) {
-    if (gl_LocalInvocationIndex == 0u) blocks[gl_WorkGroupID.x] = block_total;
-  } else if (keep) {
-    dst[blocks[gl_WorkGroupID.x] + rank] = s;
-  }
+  compaction_rank(keep, block_total);
+  const uint local = gl_LocalInvocationIndex;
+  if (local == 0u) blocks[gl_WorkGroupID.x] = block_total;
+  if (local < COMPACTION_MASK_WORDS) keep_mask[gl_WorkGroupID.x * COMPACTION_MASK_WORDS + local] = compaction_bits[local];
 }

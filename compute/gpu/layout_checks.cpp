@@ -27,13 +27,12 @@ static_assert(sizeof(FuseParams) == 128 && offsetof(FuseParams, colour_gain) == 
 // Vulkan guarantees 128 bytes of push constants.
 static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128 &&
               sizeof(ResolveParams) <= 128);
-static_assert(sizeof(CleanupParams) == 104 && offsetof(CleanupParams, free_space_penalty) == 92 &&
-              offsetof(CleanupParams, merge) == 96 && offsetof(CleanupParams, pass) == 100);
+static_assert(sizeof(CleanupParams) == 100 && offsetof(CleanupParams, free_space_penalty) == 92 &&
+              offsetof(CleanupParams, merge) == 96);
 static_assert(sizeof(MergeParams) == 120 && offsetof(MergeParams, max_source_confidence) == 116 && sizeof(MergeParams) <= 128 && offsetof(MergeParams, width) == 64 && offsetof(MergeParams, rect_x0) == 80 &&
               offsetof(MergeParams, window_cells) == 96 && offsetof(MergeParams, label) == 112);
 static_assert(sizeof(RemoveRegionParams) == 96 && offsetof(RemoveRegionParams, fx) == 48 &&
-              offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80 &&
-              offsetof(RemoveRegionParams, pass) == 84);
+              offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80);
 static_assert(sizeof(MaskVerticesParams) == 40 && offsetof(MaskVerticesParams, level) == 16 &&
               offsetof(MaskVerticesParams, keep_mask) == 20 && offsetof(MaskVerticesParams, rect_x0) == 24);
 static_assert(sizeof(MotionResidualParams) == 92 && offsetof(MotionResidualParams, live_intensity_gain) == 88 &&

@@ -21,6 +21,9 @@ class CompactionScan {
   static uint32_t block_count(uint32_t elements) { return gpu::group_count(elements, COMPACTION_BLOCK); }
   // Bytes of a blocks buffer for `elements` (at least one uint, so that it can be bound).
   static size_t blocks_bytes(uint32_t elements) { return size_t(block_count(elements) > 0 ? block_count(elements) : 1) * 4; }
+  // Bytes of a keep mask for `elements` (COMPACTION_MASK_WORDS uints per block, at least one block):
+  // the counting pass's decisions, for a writing pass that only copies.
+  static size_t keep_mask_bytes(uint32_t elements) { return blocks_bytes(elements) * COMPACTION_MASK_WORDS; }
 
   // `blocks` (uint per block, the counting pass's counts) becomes each block's first destination,
   // counter[counter_slot] plus the counts of the blocks before it; counter[counter_slot] grows by

@@ -123,6 +123,13 @@ const gpu::BufferPtr& SurfelModel::compaction_blocks(uint32_t elements) {
   return blocks_;
 }
 
+const gpu::BufferPtr& SurfelModel::compaction_keep_mask(uint32_t elements) {
+  const size_t bytes = kernels::CompactionScan::keep_mask_bytes(elements);
+  if (!keep_mask_ || keep_mask_->size() < bytes)
+    keep_mask_ = gpu::Buffer::create(ctx_, bytes, "model " + std::to_string(id_) + " compaction keep mask");
+  return keep_mask_;
+}
+
 std::vector<Surfel> SurfelModel::download(gpu::Stream& stream) const {
   std::vector<Surfel> out(count_);
   stream.download(surfels_, out.data(), out.size() * sizeof(Surfel));
@@ -181,13 +188,14 @@ SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor&
                     (1u << MERGE_BINDING_SURFELS) | (1u << MERGE_BINDING_INDEX_MAP) | (1u << MERGE_BINDING_LABELS)),
       merge_claim_(ctx, "surfel_merge_claim", shaders::surfel_merge_claim_comp(), 6, sizeof(L::MergeParams),
                    1u << MERGE_BINDING_TARGET),
-      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 7, sizeof(L::CleanupParams),
+      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 8, sizeof(L::CleanupParams),
                (1u << CLEANUP_BINDING_SRC) | (1u << CLEANUP_BINDING_DEPTH) | (1u << CLEANUP_BINDING_MERGE_TARGET) |
                    (1u << CLEANUP_BINDING_MERGE_CLAIM)),
       remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 6,
                      sizeof(L::RemoveRegionParams),
                      (1u << REMOVE_REGION_BINDING_SRC) | (1u << REMOVE_REGION_BINDING_DEPTH) |
-                         (1u << REMOVE_REGION_BINDING_LABELS)) {}
+                         (1u << REMOVE_REGION_BINDING_LABELS)),
+      compact_(ctx, "surfel_compact", shaders::surfel_compact_comp(), 4, 0, 1u << SURFEL_COMPACT_BINDING_SRC) {}
 
 void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
                               ModelPrediction& out, const PredictionParams& params, int frame,
@@ -328,38 +336,36 @@ void SurfelPipelines::merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, 
                group_count(p.surfel_count, 128));
 }
 
-void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
-                              const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
-                              L::CleanupParams p, const gpu::BufferPtr& merge_target,
-                              const gpu::BufferPtr& merge_claim) const {
-  const uint32_t block_count = kernels::CompactionScan::block_count(p.surfel_count);
-  if (block_count == 0) return;
-  const gpu::BufferPtr& target = merge_target ? merge_target : src;  // not read without p.merge
-  const gpu::BufferPtr& claim = merge_claim ? merge_claim : src;
-  const auto buffers = {src, dst, depth_m, counter, target, claim, blocks};
-  p.pass = COMPACTION_PASS_COUNT;
-  cmd.dispatch(cleanup_, buffers, p, block_count);
+void SurfelPipelines::compact_kept(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                                   const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
+                                   const gpu::BufferPtr& keep_mask, uint32_t block_count) const {
   cmd.barrier();
   scan_.record(cmd, blocks, counter, 1, block_count);
   cmd.barrier();
-  p.pass = COMPACTION_PASS_WRITE;
-  cmd.dispatch(cleanup_, buffers, p, block_count);
+  const void* no_params = nullptr;  // surfel_compact has no push constants
+  cmd.dispatch(compact_, {src, dst, blocks, keep_mask}, no_params, 0, block_count);
+}
+
+void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& scratch,
+                              const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
+                              const gpu::BufferPtr& keep_mask, const L::CleanupParams& p,
+                              const gpu::BufferPtr& merge_target, const gpu::BufferPtr& merge_claim) const {
+  const uint32_t block_count = kernels::CompactionScan::block_count(p.surfel_count);
+  if (block_count == 0) return;
+  const gpu::BufferPtr& target = merge_target ? merge_target : surfels;  // not read without p.merge
+  const gpu::BufferPtr& claim = merge_claim ? merge_claim : surfels;
+  cmd.dispatch(cleanup_, {surfels, scratch, depth_m, counter, target, claim, blocks, keep_mask}, p, block_count);
+  compact_kept(cmd, scratch, surfels, counter, blocks, keep_mask, block_count);
 }
 
 void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                                     const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels,
                                     const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
-                                    L::RemoveRegionParams p) const {
+                                    const gpu::BufferPtr& keep_mask, const L::RemoveRegionParams& p) const {
   const uint32_t block_count = kernels::CompactionScan::block_count(p.surfel_count);
   if (block_count == 0) return;
-  const auto buffers = {src, dst, depth_m, labels, counter, blocks};
-  p.pass = COMPACTION_PASS_COUNT;
-  cmd.dispatch(remove_region_, buffers, p, block_count);
-  cmd.barrier();
-  scan_.record(cmd, blocks, counter, 1, block_count);
-  cmd.barrier();
-  p.pass = COMPACTION_PASS_WRITE;
-  cmd.dispatch(remove_region_, buffers, p, block_count);
+  cmd.dispatch(remove_region_, {src, keep_mask, depth_m, labels, counter, blocks}, p, block_count);
+  compact_kept(cmd, src, dst, counter, blocks, keep_mask, block_count);
 }
 
 FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
@@ -432,6 +438,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   // One blocks buffer serves fusion's new surfels (a block per COMPACTION_BLOCK pixels of the
   // rectangle) and then cleanup (per COMPACTION_BLOCK surfels), one after the other.
   const gpu::BufferPtr& blocks = model.compaction_blocks(std::max(incoming, most_surfels));
+  const gpu::BufferPtr& keep_mask = model.compaction_keep_mask(most_surfels);
   // Association reads only the index-map rows of the rectangle's pixels and the claims of
   // existing surfels: nothing else needs clearing.
   const size_t row_bytes = size_t(k.width) * size_t(S) * 8;
@@ -457,13 +464,13 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
       merge_claim(cmd, mb, mp);
       cmd.barrier();
     }
-    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, blocks, cp, model.merge_target_, model.claim_);
+    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, blocks, keep_mask, cp,
+            model.merge_target_, model.claim_);
   });
   uint32_t counter[4];
   stream.download(model.counter_, counter, sizeof counter);
   stats.surfels_after_fusion = std::min(counter[0], model.capacity_);
   stats.surfels_after_cleanup = counter[1];
-  std::swap(model.surfels_, model.scratch_);
   model.count_ = counter[1];
   const unsigned most = model.limit(incoming, params.max_surfels);
   if (model.count_ > most) stats.culled += model.cull_least_confident(stream, cull_target(most, params));
@@ -494,8 +501,9 @@ unsigned SurfelPipelines::remove_region(gpu::Stream& stream, SurfelModel& model,
   const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
   stream.upload(model.counter_, counter_init, sizeof counter_init);
   const gpu::BufferPtr& blocks = model.compaction_blocks(model.count_);
+  const gpu::BufferPtr& keep_mask = model.compaction_keep_mask(model.count_);
   stream.run([&](gpu::CommandList& cmd) {
-    remove_region(cmd, model.surfels_, model.scratch_, l0.depth_m, labels, model.counter_, blocks, p);
+    remove_region(cmd, model.surfels_, model.scratch_, l0.depth_m, labels, model.counter_, blocks, keep_mask, p);
   });
   uint32_t counter[4];
   stream.download(model.counter_, counter, sizeof counter);

@@ -64,8 +64,9 @@ class SurfelModel {
   // Allocates (or grows) the per-fusion scratch for a live image of `pixels` pixels and an index
   // map of `index_map_cells` cells.
   void ensure_fusion_scratch(size_t pixels, size_t index_map_cells);
-  // The compaction's blocks buffer (kernels/compaction.h), grown to cover `elements`.
+  // The compaction's blocks buffer and keep mask (kernels/compaction.h), grown to cover `elements`.
   const gpu::BufferPtr& compaction_blocks(uint32_t elements);
+  const gpu::BufferPtr& compaction_keep_mask(uint32_t elements);
 
   gpu::Context& ctx_;
   int id_;
@@ -74,7 +75,9 @@ class SurfelModel {
   unsigned max_capacity_ = 0;
   uint64_t culled_total_ = 0;
   gpu::BufferPtr surfels_;  // Surfel[capacity]
-  gpu::BufferPtr scratch_;  // compaction target, swapped with surfels_ after cleanup
+  // Cleanup's decided surfels (at their own index, compacted back into surfels_); remove_region's
+  // compaction target, swapped with surfels_ after it.
+  gpu::BufferPtr scratch_;
   gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims, then the merge claims
   gpu::BufferPtr merge_target_;  // uint[capacity]: the surfel each surfel merges into
   gpu::BufferPtr counter_;  // uint[4]
@@ -84,6 +87,7 @@ class SurfelModel {
   gpu::BufferPtr assoc_;      // uint per live pixel
   gpu::BufferPtr no_labels_;  // bound in place of a label map when fusing without labels
   gpu::BufferPtr blocks_;     // uint per block of new-surfel pixels or kept surfels (compaction)
+  gpu::BufferPtr keep_mask_;  // a bit per surfel: kept by cleanup or remove_region (compaction)
 };
 
 // A model rendered into a camera view, as tracking's reference: per pyramid level the vertex
@@ -168,19 +172,31 @@ class SurfelPipelines {
   };
   void merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
   void merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
-  // cleanup and remove_region: both compaction passes and the scan between them; the kept surfels
-  // go to dst from counter[1] on (the caller sets it, usually to 0), in their order. `blocks`:
-  // CompactionScan::blocks_bytes(p.surfel_count). p.pass is set here.
+  // cleanup and remove_region: the deciding (counting) pass, compaction_scan and surfel_compact,
+  // which copies the kept surfels, in their order, from counter[1] on (the caller sets it, usually
+  // to 0). `blocks`: CompactionScan::blocks_bytes(p.surfel_count); `keep_mask`:
+  // CompactionScan::keep_mask_bytes(p.surfel_count).
+  // cleanup decides each surfel of `surfels` once, writes the kept ones as they stay (merged,
+  // penalised) to `scratch` at their own index, and compacts them from there back into `surfels`.
   // With p.merge, `merge_target` and `merge_claim` are merge_select's and merge_claim's results;
-  // without, they are not read (null binds `src` in their place).
-  void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, const gpu::BufferPtr& depth_m,
-               const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks, gpu_layout::CleanupParams p,
+  // without, they are not read (null binds `surfels` in their place).
+  void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& scratch,
+               const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
+               const gpu::BufferPtr& keep_mask, const gpu_layout::CleanupParams& p,
                const gpu::BufferPtr& merge_target = nullptr, const gpu::BufferPtr& merge_claim = nullptr) const;
+  // remove_region copies the kept surfels of `src` (unchanged) to `dst`.
   void remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                      const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels, const gpu::BufferPtr& counter,
-                     const gpu::BufferPtr& blocks, gpu_layout::RemoveRegionParams p) const;
+                     const gpu::BufferPtr& blocks, const gpu::BufferPtr& keep_mask,
+                     const gpu_layout::RemoveRegionParams& p) const;
 
  private:
+  // After a counting pass over `block_count` blocks: compaction_scan into counter[1], then
+  // surfel_compact copies the kept surfels from src to dst.
+  void compact_kept(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                    const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks, const gpu::BufferPtr& keep_mask,
+                    uint32_t block_count) const;
+
   const kernels::Preprocessor& preprocessor_;
   gpu::ComputePipeline splat_;
   gpu::ComputePipeline resolve_;
@@ -193,6 +209,7 @@ class SurfelPipelines {
   gpu::ComputePipeline merge_claim_;
   gpu::ComputePipeline cleanup_;
   gpu::ComputePipeline remove_region_;
+  gpu::ComputePipeline compact_;
 };
 
 // Row-major float 3x4 of a rigid transform, as the shaders take it.

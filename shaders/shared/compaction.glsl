@@ -9,7 +9,8 @@ shared uint compaction_bits[COMPACTION_BLOCK / 32];
 
 // The number of kept elements before this invocation's in its block; `block_total` gets the
 // block's number of kept elements. Every invocation of the workgroup must call it, in uniform
-// control flow (it has barriers).
+// control flow (it has barriers). Afterwards compaction_bits holds the block's keep mask
+// (COMPACTION_MASK_WORDS words, host_device.h's layout) until the next call.
 uint compaction_rank(bool keep, out uint block_total) {
   const uint i = gl_LocalInvocationIndex, word = i >> 5u, bit = i & 31u;
   if (i < COMPACTION_BLOCK / 32) compaction_bits[i] = 0u;

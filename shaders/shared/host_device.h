@@ -82,8 +82,11 @@ struct GradientParams {
 // timing. Elements go in blocks of COMPACTION_BLOCK consecutive ones, one workgroup per block:
 // a counting pass writes each block's number of kept elements, compaction_scan turns those into
 // each block's first destination, and the writing pass puts an element at its block's first
-// destination plus the number of kept elements before it in the block.
+// destination plus the number of kept elements before it in the block. Cleanup and
+// remove_region decide once: their counting pass also stores the decisions as a keep mask (a bit
+// per element: bit e % 32 of word e / 32), and surfel_compact, the writing pass, only copies.
 #define COMPACTION_BLOCK 256
+#define COMPACTION_MASK_WORDS (COMPACTION_BLOCK / 32)  // keep-mask words per block
 #define COMPACTION_PASS_COUNT 0  // the kernel writes its block's count to the blocks buffer
 #define COMPACTION_PASS_WRITE 1  // the kernel writes its kept elements
 #define COMPACTION_SCAN_BINDING_BLOCKS 0   // uint[block_count]: counts in, first destinations out
@@ -202,13 +205,16 @@ struct FuseParams {
 };
 
 // ---- surfel_cleanup.comp: drop unstable / free-space-violating surfels, compact the rest ----
+// The counting pass of a compaction (see compaction) whose writing pass is surfel_compact: each
+// kept surfel goes, as it stays (merged, free-space penalty applied), to DECIDED at its own index.
 #define CLEANUP_BINDING_SRC 0
-#define CLEANUP_BINDING_DST 1
+#define CLEANUP_BINDING_DECIDED 1       // Surfel[] (written only at kept surfels' indices)
 #define CLEANUP_BINDING_DEPTH 2     // live depth (metres) at full resolution
 #define CLEANUP_BINDING_COUNTER 3   // uint[4]: [0] count to scan, [1] kept count (compaction_scan)
 #define CLEANUP_BINDING_MERGE_TARGET 4  // uint[] per surfel, from surfel_merge_select (read when merge != 0)
 #define CLEANUP_BINDING_MERGE_CLAIM 5   // uint[] per surfel, from surfel_merge_claim (read when merge != 0)
-#define CLEANUP_BINDING_BLOCKS 6        // uint[] per block of COMPACTION_BLOCK surfels (see compaction)
+#define CLEANUP_BINDING_BLOCKS 6        // uint[] per block of COMPACTION_BLOCK surfels: kept count
+#define CLEANUP_BINDING_KEEP_MASK 7     // uint[COMPACTION_MASK_WORDS] per block: a bit per kept surfel
 struct CleanupParams {
   float T_camera_model[12];
   float fx, fy, cx, cy;
@@ -223,7 +229,6 @@ struct CleanupParams {
   // has no target itself and claim[t] == i, is dropped; a surfel i with claim[i] = c != MERGE_NONE
   // becomes merge_surfels(i, c) (confidence-weighted average, confidences summed).
   uint merge;
-  uint pass;  // COMPACTION_PASS_COUNT or COMPACTION_PASS_WRITE
 };
 
 // ---- surfel_merge_select.comp, surfel_merge_claim.comp: duplicate surfels --------------------
@@ -263,14 +268,15 @@ struct MergeParams {
 // ---- surfel_remove_region.comp: remove the surfels that a labelled live region covers ----------
 // (Co-Fusion: when part of the background starts moving as its own model, the background's copy
 // goes.) A surfel projecting (nearest pixel) onto a live pixel labelled `label` with a depth d > 0
-// is removed when z_surfel < d * (1 + margin_rel); surfels behind that (occluded) stay. The kept
-// ones are compacted into DST in their order (see compaction).
+// is removed when z_surfel < d * (1 + margin_rel); surfels behind that (occluded) stay. The
+// counting pass of a compaction (see compaction) whose writing pass, surfel_compact, copies the
+// kept ones in their order.
 #define REMOVE_REGION_BINDING_SRC 0
-#define REMOVE_REGION_BINDING_DST 1
+#define REMOVE_REGION_BINDING_KEEP_MASK 1  // uint[COMPACTION_MASK_WORDS] per block: a bit per kept surfel
 #define REMOVE_REGION_BINDING_DEPTH 2    // live depth (metres) at full resolution, 0 = no reading
 #define REMOVE_REGION_BINDING_LABELS 3   // uint[] per live pixel
 #define REMOVE_REGION_BINDING_COUNTER 4  // uint[4]: [0] count to scan, [1] kept count (compaction_scan)
-#define REMOVE_REGION_BINDING_BLOCKS 5   // uint[] per block of COMPACTION_BLOCK surfels (see compaction)
+#define REMOVE_REGION_BINDING_BLOCKS 5   // uint[] per block of COMPACTION_BLOCK surfels: kept count
 struct RemoveRegionParams {
   float T_camera_model[12];
   float fx, fy, cx, cy;
@@ -278,9 +284,16 @@ struct RemoveRegionParams {
   uint surfel_count;          // upper bound of counter[0] (the dispatch size)
   uint label;                 // live pixels with this label are the region
   float margin_rel;           // surfels with z < d * (1 + margin_rel) are removed
-  uint pass;                  // COMPACTION_PASS_COUNT or COMPACTION_PASS_WRITE
-  uint pad1, pad2;
+  uint pad0, pad1, pad2;
 };
+
+// ---- surfel_compact.comp: the writing pass of cleanup's and remove_region's compaction -------
+// Copies the surfels the keep mask marks, in their order, to DST from their block's first
+// destination (compaction_scan's result) on. No parameters; one workgroup per block.
+#define SURFEL_COMPACT_BINDING_SRC 0        // texel view of Surfel[]
+#define SURFEL_COMPACT_BINDING_DST 1        // Surfel[]
+#define SURFEL_COMPACT_BINDING_BLOCKS 2     // uint[] per block: first destination
+#define SURFEL_COMPACT_BINDING_KEEP_MASK 3  // uint[COMPACTION_MASK_WORDS] per block
 
 // ---- mask_vertices.comp: a level's live vertex map restricted to some models' labels --------
 // dst[x, y] = src[x, y] where the level-0 label at (x << level, y << level) (clamped to the

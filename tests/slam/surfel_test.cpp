@@ -372,20 +372,23 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy, cp.width = fp.width, cp.height = fp.height;
       cp.surfel_count = capacity, cp.frame = 130, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
       cp.free_space_margin_rel = 0.05f, cp.free_space_penalty = 3.0f;
-      auto src = upload(cpu_surfels, "cleanup src");
-      auto dst = gpu::Buffer::create(ctx(), cpu_surfels.size() * sizeof(Surfel) + 48, "cleanup dst");
+      auto gpu_model = upload(cpu_surfels, "cleanup surfels");
+      auto scratch = gpu::Buffer::create(ctx(), cpu_surfels.size() * sizeof(Surfel) + 48, "cleanup scratch");
       auto counter = upload(std::vector<uint32_t>{uint32_t(cpu_surfels.size()), 0, 0, 0});
       auto depth_buffer = upload(pushed.pixels);
       auto blocks = gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(cp.surfel_count), "blocks");
-      stream().run([&](gpu::CommandList& c) { pipes_->cleanup(c, src, dst, depth_buffer, counter, blocks, cp); });
+      auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(cp.surfel_count), "keep mask");
+      stream().run([&](gpu::CommandList& c) {
+        pipes_->cleanup(c, gpu_model, scratch, depth_buffer, counter, blocks, keep_mask, cp);
+      });
       auto cpu_kept = ref::cleanup(cpu_surfels, pushed, cp);
       const uint32_t kept = download<uint32_t>(counter, 2)[1];
       ASSERT_EQ(kept, cpu_kept.size()) << name(s);
       if (s.width >= 160) {
         EXPECT_LT(kept, cpu_surfels.size()) << "cleanup removed nothing: test data too easy";
       }
-      // Kept surfels in their order on both sides.
-      auto gpu_kept = download<Surfel>(dst, kept);
+      // Kept surfels in their order on both sides, compacted back into the model's buffer.
+      auto gpu_kept = download<Surfel>(gpu_model, kept);
       bad = 0;
       for (size_t i = 0; i < cpu_kept.size(); ++i) bad += !same_surfel(gpu_kept[i], cpu_kept[i], 1e-6f);
       EXPECT_EQ(bad, 0) << "cleanup " << name(s);
@@ -487,17 +490,18 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       cp.surfel_count = n, cp.frame = 110, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
       cp.free_space_margin_rel = 0.05f, cp.free_space_penalty = 1.0f, cp.merge = 1;
       const Image<float> no_depth(s.width, s.height);
-      auto dst = gpu::Buffer::create(ctx(), slots * sizeof(Surfel), "cleanup dst");
+      auto scratch = gpu::Buffer::create(ctx(), slots * sizeof(Surfel), "cleanup scratch");
       auto counter = upload(std::vector<uint32_t>{n, 0, 0, 0});
       auto depth_buffer = upload(no_depth.pixels);
       auto blocks = gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(n), "blocks");
+      auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(n), "keep mask");
       stream().run([&](gpu::CommandList& c) {
-        pipes_->cleanup(c, b.surfels, dst, depth_buffer, counter, blocks, cp, b.target, b.claim);
+        pipes_->cleanup(c, b.surfels, scratch, depth_buffer, counter, blocks, keep_mask, cp, b.target, b.claim);
       });
       auto cpu_kept = ref::cleanup(surfels, no_depth, cp, ref::Merges{cpu_target, cpu_claim});
       const uint32_t kept = download<uint32_t>(counter, 2)[1];
       ASSERT_EQ(kept, cpu_kept.size()) << what;
-      auto gpu_kept = download<Surfel>(dst, kept);  // in order, as the CPU's
+      auto gpu_kept = download<Surfel>(b.surfels, kept);  // in order, as the CPU's, back in place
       int bad = 0;
       for (size_t i = 0; i < cpu_kept.size(); ++i) bad += !same_surfel(gpu_kept[i], cpu_kept[i], 2e-5f);
       EXPECT_EQ(bad, 0) << "merging cleanup " << what;
