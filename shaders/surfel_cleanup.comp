@@ -15,7 +15,8 @@
 #include "shared/compaction.glsl"
 layout(local_size_x = COMPACTION_BLOCK) in;
 layout(binding = CLEANUP_BINDING_SRC) uniform usamplerBuffer src;  // texel view
-layout(std430, binding = CLEANUP_BINDING_DECIDED) writeonly buffer Decided { Surfel decided[]; };
+// Surfels as three uvec4s each (surfel_texel), so that a surfel is three whole-vector stores.
+layout(std430, binding = CLEANUP_BINDING_DECIDED) writeonly buffer Decided { uvec4 decided[]; };
 layout(binding = CLEANUP_BINDING_DEPTH) uniform usamplerBuffer depth_m;  // texel view of float metres
 layout(std430, binding = CLEANUP_BINDING_COUNTER) readonly buffer Counter { uint counter[]; };
 layout(binding = CLEANUP_BINDING_MERGE_TARGET) uniform usamplerBuffer merge_target;  // texel view of uint
@@ -54,7 +55,8 @@ void main() {
   const uint i = gl_GlobalInvocationID.x;
   Surfel s;
   const bool keep = i < min(p.surfel_count, counter[0]) && kept(i, s);
-  if (keep) decided[i] = s;
+  if (keep)
+    for (uint k = 0u; k < 3u; ++k) decided[3u * i + k] = surfel_texel(s, k);
   uint block_total;
   compaction_rank(keep, block_total);
   const uint local = gl_LocalInvocationIndex;
