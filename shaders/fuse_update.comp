@@ -1,13 +1,17 @@
 #version 460
 // Fuses each live pixel into the surfel it claimed (weighted running average of position, normal,
-// colour and radius; confidence grows by the measurement weight), or appends a new surfel where
-// no surfel explains the pixel. The host guarantees room for one new surfel per pixel.
+// colour and radius; confidence grows by the measurement weight), or adds a new surfel where no
+// surfel explains the pixel. One invocation per pixel of the rectangle, row-major: new surfels
+// take their slots in pixel order (fuse_count_new and compaction_scan gave each block of pixels
+// its first slot). The host guarantees room for one new surfel per pixel.
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
 #include "shared/texel_access.glsl"
 #include "shared/rigid.glsl"
 #include "shared/fusion.glsl"
-layout(local_size_x = COFUSION_TILE, local_size_y = COFUSION_TILE) in;
+#include "shared/compaction.glsl"
+#include "shared/fuse_rect.glsl"
+layout(local_size_x = COMPACTION_BLOCK) in;
 layout(binding = FUSE_BINDING_SURFELS) uniform usamplerBuffer surfels_in;  // texel view
 layout(std430, binding = FUSE_BINDING_SURFELS_OUT) writeonly buffer Surfels { Surfel surfels[]; };
 layout(std430, binding = FUSE_BINDING_INDEX_MAP) readonly buffer IndexMap { uint index_map_unused[]; };
@@ -16,15 +20,17 @@ layout(binding = FUSE_BINDING_NORMAL) uniform usamplerBuffer normal;  // texel v
 layout(binding = FUSE_BINDING_RGB) uniform usamplerBuffer rgb;  // texel view of uint
 layout(binding = FUSE_BINDING_ASSOC) uniform usamplerBuffer assoc;  // texel view of uint
 layout(binding = FUSE_BINDING_CLAIM) uniform usamplerBuffer claim;  // texel view of uint
-layout(std430, binding = FUSE_BINDING_COUNTER) buffer Counter { uint counter[]; };
 layout(std430, binding = FUSE_BINDING_LABELS) readonly buffer Labels { uint labels_unused[]; };
+layout(std430, binding = FUSE_BINDING_BLOCKS) readonly buffer Blocks { uint blocks[]; };
 layout(push_constant) uniform Push { FuseParams p; };
 uint byte_at(uint b) { return (texel_uint(rgb, b >> 2) >> ((b & 3u) * 8u)) & 0xFFu; }
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
-  if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
-  uint i = px.y * p.width + px.x;
-  uint a = texel_uint(assoc, i);
+  uvec2 px;
+  const bool inside = fuse_rect_pixel(p, gl_GlobalInvocationID.x, px);
+  const uint i = px.y * p.width + px.x;
+  const uint a = inside ? texel_uint(assoc, i) : FUSE_SKIP_PIXEL;
+  uint block_total;
+  const uint rank = compaction_rank(a == FUSE_NO_SURFEL, block_total);
   if (a == FUSE_SKIP_PIXEL) return;
   vec3 v = texel_vec4(vertex, i).xyz, n = texel_vec4(normal, i).xyz;
   float alpha = measurement_weight(px, p.cx, p.cy);
@@ -33,8 +39,8 @@ void main() {
   vec3 v_model = rigid_apply_inverse(p.T_camera_model, v);
   vec3 n_model = rigid_rotate_inverse(p.T_camera_model, n);
   if (a == FUSE_NO_SURFEL) {
-    uint slot = atomicAdd(counter[0], 1u);
-    if (slot >= p.capacity) return;  // cannot happen: the host reserves width*height slots
+    const uint slot = blocks[gl_WorkGroupID.x] + rank;
+    if (slot >= p.capacity) return;  // cannot happen: the host reserves a slot per pixel
     Surfel s;
     s.px = v_model.x; s.py = v_model.y; s.pz = v_model.z;
     s.confidence = alpha;

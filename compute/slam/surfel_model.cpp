@@ -116,6 +116,20 @@ void SurfelModel::ensure_fusion_scratch(size_t pixels, size_t index_map_cells) {
   if (!no_labels_) no_labels_ = gpu::Buffer::create(ctx_, 4, name + " no labels");
 }
 
+const gpu::BufferPtr& SurfelModel::compaction_blocks(uint32_t elements) {
+  const size_t bytes = kernels::CompactionScan::blocks_bytes(elements);
+  if (!blocks_ || blocks_->size() < bytes)
+    blocks_ = gpu::Buffer::create(ctx_, bytes, "model " + std::to_string(id_) + " compaction blocks");
+  return blocks_;
+}
+
+const gpu::BufferPtr& SurfelModel::compaction_keep_mask(uint32_t elements) {
+  const size_t bytes = kernels::CompactionScan::keep_mask_bytes(elements);
+  if (!keep_mask_ || keep_mask_->size() < bytes)
+    keep_mask_ = gpu::Buffer::create(ctx_, bytes, "model " + std::to_string(id_) + " compaction keep mask");
+  return keep_mask_;
+}
+
 std::vector<Surfel> SurfelModel::download(gpu::Stream& stream) const {
   std::vector<Surfel> out(count_);
   stream.download(surfels_, out.data(), out.size() * sizeof(Surfel));
@@ -161,23 +175,27 @@ SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor&
       subsample_(ctx, "subsample_prediction", shaders::subsample_prediction_comp(), 6, sizeof(L::SubsampleParams),
                  (1u << SUBSAMPLE_BINDING_SRC_VERTEX) | (1u << SUBSAMPLE_BINDING_SRC_NORMAL) |
                      (1u << SUBSAMPLE_BINDING_SRC_INTENSITY)),
+      scan_(ctx),
       associate_(ctx, "fuse_associate", shaders::fuse_associate_comp(), 9, sizeof(L::FuseParams),
                  (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_INDEX_MAP) | (1u << FUSE_BINDING_VERTEX) |
                      (1u << FUSE_BINDING_NORMAL) | (1u << FUSE_BINDING_LABELS)),
-      update_(ctx, "fuse_update", shaders::fuse_update_comp(), 10, sizeof(L::FuseParams),
+      count_new_(ctx, "fuse_count_new", shaders::fuse_count_new_comp(), 11, sizeof(L::FuseParams),
+                 1u << FUSE_BINDING_ASSOC),
+      update_(ctx, "fuse_update", shaders::fuse_update_comp(), 11, sizeof(L::FuseParams),
               (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_VERTEX) | (1u << FUSE_BINDING_NORMAL) |
                   (1u << FUSE_BINDING_RGB) | (1u << FUSE_BINDING_ASSOC) | (1u << FUSE_BINDING_CLAIM)),
       merge_select_(ctx, "surfel_merge_select", shaders::surfel_merge_select_comp(), 6, sizeof(L::MergeParams),
                     (1u << MERGE_BINDING_SURFELS) | (1u << MERGE_BINDING_INDEX_MAP) | (1u << MERGE_BINDING_LABELS)),
       merge_claim_(ctx, "surfel_merge_claim", shaders::surfel_merge_claim_comp(), 6, sizeof(L::MergeParams),
                    1u << MERGE_BINDING_TARGET),
-      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 6, sizeof(L::CleanupParams),
+      cleanup_(ctx, "surfel_cleanup", shaders::surfel_cleanup_comp(), 8, sizeof(L::CleanupParams),
                (1u << CLEANUP_BINDING_SRC) | (1u << CLEANUP_BINDING_DEPTH) | (1u << CLEANUP_BINDING_MERGE_TARGET) |
                    (1u << CLEANUP_BINDING_MERGE_CLAIM)),
-      remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 5,
+      remove_region_(ctx, "surfel_remove_region", shaders::surfel_remove_region_comp(), 6,
                      sizeof(L::RemoveRegionParams),
                      (1u << REMOVE_REGION_BINDING_SRC) | (1u << REMOVE_REGION_BINDING_DEPTH) |
-                         (1u << REMOVE_REGION_BINDING_LABELS)) {}
+                         (1u << REMOVE_REGION_BINDING_LABELS)),
+      compact_(ctx, "surfel_compact", shaders::surfel_compact_comp(), 4, 0, 1u << SURFEL_COMPACT_BINDING_SRC) {}
 
 void SurfelPipelines::predict(gpu::CommandList& cmd, const SurfelModel& model, const Eigen::Isometry3d& T_camera_model,
                               ModelPrediction& out, const PredictionParams& params, int frame,
@@ -276,10 +294,16 @@ L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, cons
   return mp;
 }
 
-// Workgroups covering FuseParams' pixel rectangle (0 when it is empty).
-std::pair<uint32_t, uint32_t> rect_tiles(const L::FuseParams& p) {
+// FuseParams' pixel rectangle within the image: width and height (0 x 0 when it is empty).
+std::pair<uint32_t, uint32_t> rect_size(const L::FuseParams& p) {
   const int w = int(std::min(p.rect_x1, p.width)) - int(p.rect_x0), h = int(std::min(p.rect_y1, p.height)) - int(p.rect_y0);
-  return w > 0 && h > 0 ? std::pair(tiles(w), tiles(h)) : std::pair(0u, 0u);
+  return w > 0 && h > 0 ? std::pair(uint32_t(w), uint32_t(h)) : std::pair(0u, 0u);
+}
+
+// Workgroups covering the rectangle in 2D tiles (0 when it is empty).
+std::pair<uint32_t, uint32_t> rect_tiles(const L::FuseParams& p) {
+  const auto [w, h] = rect_size(p);
+  return std::pair(tiles(int(w)), tiles(int(h)));
 }
 }  // namespace
 
@@ -291,11 +315,15 @@ void SurfelPipelines::associate(gpu::CommandList& cmd, const FuseBuffers& b, con
 }
 
 void SurfelPipelines::update(gpu::CommandList& cmd, const FuseBuffers& b, const L::FuseParams& p) const {
-  const auto [gx, gy] = rect_tiles(p);
-  if (gx == 0) return;
-  cmd.dispatch(update_,
-               {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels, b.surfels}, p,
-               gx, gy);
+  const auto [w, h] = rect_size(p);
+  const uint32_t blocks = kernels::CompactionScan::block_count(w * h);
+  if (blocks == 0) return;
+  const auto buffers = {b.surfels, b.index_map, b.vertex, b.normal, b.rgb, b.assoc, b.claim, b.counter, b.labels, b.surfels, b.blocks};
+  cmd.dispatch(count_new_, buffers, p, blocks);
+  cmd.barrier();
+  scan_.record(cmd, b.blocks, b.counter, 0, blocks);
+  cmd.barrier();
+  cmd.dispatch(update_, buffers, p, blocks);
 }
 
 void SurfelPipelines::merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p) const {
@@ -308,18 +336,36 @@ void SurfelPipelines::merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, 
                group_count(p.surfel_count, 128));
 }
 
-void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
-                              const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const L::CleanupParams& p,
+void SurfelPipelines::compact_kept(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                                   const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
+                                   const gpu::BufferPtr& keep_mask, uint32_t block_count) const {
+  cmd.barrier();
+  scan_.record(cmd, blocks, counter, 1, block_count);
+  cmd.barrier();
+  const void* no_params = nullptr;  // surfel_compact has no push constants
+  cmd.dispatch(compact_, {src, dst, blocks, keep_mask}, no_params, 0, block_count);
+}
+
+void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& scratch,
+                              const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
+                              const gpu::BufferPtr& keep_mask, const L::CleanupParams& p,
                               const gpu::BufferPtr& merge_target, const gpu::BufferPtr& merge_claim) const {
-  const gpu::BufferPtr& target = merge_target ? merge_target : src;  // not read without p.merge
-  const gpu::BufferPtr& claim = merge_claim ? merge_claim : src;
-  cmd.dispatch(cleanup_, {src, dst, depth_m, counter, target, claim}, p, group_count(p.surfel_count, 128));
+  const uint32_t block_count = kernels::CompactionScan::block_count(p.surfel_count);
+  if (block_count == 0) return;
+  const gpu::BufferPtr& target = merge_target ? merge_target : surfels;  // not read without p.merge
+  const gpu::BufferPtr& claim = merge_claim ? merge_claim : surfels;
+  cmd.dispatch(cleanup_, {surfels, scratch, depth_m, counter, target, claim, blocks, keep_mask}, p, block_count);
+  compact_kept(cmd, scratch, surfels, counter, blocks, keep_mask, block_count);
 }
 
 void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                                     const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels,
-                                    const gpu::BufferPtr& counter, const L::RemoveRegionParams& p) const {
-  cmd.dispatch(remove_region_, {src, dst, depth_m, labels, counter}, p, group_count(p.surfel_count, 128));
+                                    const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
+                                    const gpu::BufferPtr& keep_mask, const L::RemoveRegionParams& p) const {
+  const uint32_t block_count = kernels::CompactionScan::block_count(p.surfel_count);
+  if (block_count == 0) return;
+  cmd.dispatch(remove_region_, {src, keep_mask, depth_m, labels, counter, blocks}, p, block_count);
+  compact_kept(cmd, src, dst, counter, blocks, keep_mask, block_count);
 }
 
 FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
@@ -331,7 +377,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   const unsigned pixels = unsigned(k.width) * unsigned(k.height);
   const PixelRect area = rect ? rect->clamped(k.width, k.height) : PixelRect::full(k.width, k.height);
   FusionStats stats;
-  // Room for one new surfel per pixel of the rectangle, so the append in fuse_update can never
+  // Room for one new surfel per pixel of the rectangle, so fuse_update's new surfels can never
   // overflow; cleanup scans no further.
   const unsigned incoming = unsigned(area.area());
   stats.culled = model.make_room(stream, incoming, params);
@@ -389,6 +435,10 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   const L::MergeParams mp = merge_params(fp, most_surfels, params);
 
   const gpu::BufferPtr& label_buffer = labels ? labels : model.no_labels_;
+  // One blocks buffer serves fusion's new surfels (a block per COMPACTION_BLOCK pixels of the
+  // rectangle) and then cleanup (per COMPACTION_BLOCK surfels), one after the other.
+  const gpu::BufferPtr& blocks = model.compaction_blocks(std::max(incoming, most_surfels));
+  const gpu::BufferPtr& keep_mask = model.compaction_keep_mask(most_surfels);
   // Association reads only the index-map rows of the rectangle's pixels and the claims of
   // existing surfels: nothing else needs clearing.
   const size_t row_bytes = size_t(k.width) * size_t(S) * 8;
@@ -401,7 +451,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
     cmd.set_profile_label("");
     cmd.barrier();
     const FuseBuffers b{model.surfels_, index_map, l0.vertex, l0.normal, live.rgb,
-                        model.assoc_,   model.claim_, model.counter_, label_buffer};
+                        model.assoc_,   model.claim_, model.counter_, label_buffer, blocks};
     associate(cmd, b, fp);
     cmd.barrier();
     update(cmd, b, fp);
@@ -414,13 +464,13 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
       merge_claim(cmd, mb, mp);
       cmd.barrier();
     }
-    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, cp, model.merge_target_, model.claim_);
+    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, blocks, keep_mask, cp,
+            model.merge_target_, model.claim_);
   });
   uint32_t counter[4];
   stream.download(model.counter_, counter, sizeof counter);
   stats.surfels_after_fusion = std::min(counter[0], model.capacity_);
   stats.surfels_after_cleanup = counter[1];
-  std::swap(model.surfels_, model.scratch_);
   model.count_ = counter[1];
   const unsigned most = model.limit(incoming, params.max_surfels);
   if (model.count_ > most) stats.culled += model.cull_least_confident(stream, cull_target(most, params));
@@ -450,8 +500,10 @@ unsigned SurfelPipelines::remove_region(gpu::Stream& stream, SurfelModel& model,
   p.margin_rel = margin_rel;
   const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
   stream.upload(model.counter_, counter_init, sizeof counter_init);
+  const gpu::BufferPtr& blocks = model.compaction_blocks(model.count_);
+  const gpu::BufferPtr& keep_mask = model.compaction_keep_mask(model.count_);
   stream.run([&](gpu::CommandList& cmd) {
-    remove_region(cmd, model.surfels_, model.scratch_, l0.depth_m, labels, model.counter_, p);
+    remove_region(cmd, model.surfels_, model.scratch_, l0.depth_m, labels, model.counter_, blocks, keep_mask, p);
   });
   uint32_t counter[4];
   stream.download(model.counter_, counter, sizeof counter);

@@ -14,6 +14,7 @@
 #include "common/pixel_rect.h"
 #include "common/surfel_cloud.h"
 #include "gpu/stream.h"
+#include "kernels/compaction.h"
 #include "kernels/preprocess.h"
 #include "shared/host_device.h"
 #include "slam/surfel_params.h"
@@ -63,6 +64,9 @@ class SurfelModel {
   // Allocates (or grows) the per-fusion scratch for a live image of `pixels` pixels and an index
   // map of `index_map_cells` cells.
   void ensure_fusion_scratch(size_t pixels, size_t index_map_cells);
+  // The compaction's blocks buffer and keep mask (kernels/compaction.h), grown to cover `elements`.
+  const gpu::BufferPtr& compaction_blocks(uint32_t elements);
+  const gpu::BufferPtr& compaction_keep_mask(uint32_t elements);
 
   gpu::Context& ctx_;
   int id_;
@@ -71,7 +75,9 @@ class SurfelModel {
   unsigned max_capacity_ = 0;
   uint64_t culled_total_ = 0;
   gpu::BufferPtr surfels_;  // Surfel[capacity]
-  gpu::BufferPtr scratch_;  // compaction target, swapped with surfels_ after cleanup
+  // Cleanup's decided surfels (at their own index, compacted back into surfels_); remove_region's
+  // compaction target, swapped with surfels_ after it.
+  gpu::BufferPtr scratch_;
   gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims, then the merge claims
   gpu::BufferPtr merge_target_;  // uint[capacity]: the surfel each surfel merges into
   gpu::BufferPtr counter_;  // uint[4]
@@ -80,6 +86,8 @@ class SurfelModel {
   gpu::BufferPtr index_map_;  // uint64 per cell of the supersampled index map
   gpu::BufferPtr assoc_;      // uint per live pixel
   gpu::BufferPtr no_labels_;  // bound in place of a label map when fusing without labels
+  gpu::BufferPtr blocks_;     // uint per block of new-surfel pixels or kept surfels (compaction)
+  gpu::BufferPtr keep_mask_;  // a bit per surfel: kept by cleanup or remove_region (compaction)
 };
 
 // A model rendered into a camera view, as tracking's reference: per pyramid level the vertex
@@ -146,6 +154,7 @@ class SurfelPipelines {
   // Single kernels, as predict() and fuse() record them (for tests against the references).
   struct FuseBuffers {
     gpu::BufferPtr surfels, index_map, vertex, normal, rgb, assoc, claim, counter, labels;
+    gpu::BufferPtr blocks;  // update: CompactionScan::blocks_bytes(rectangle's pixels)
   };
   void splat(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& grid,
              const gpu_layout::SplatParams& p) const;
@@ -156,32 +165,51 @@ class SurfelPipelines {
   void subsample(gpu::CommandList& cmd, const kernels::FramePyramid::Level& src, const kernels::FramePyramid::Level& dst,
                  const std::optional<PixelRect>& rect = std::nullopt) const;
   void associate(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
+  // fuse_count_new, compaction_scan and fuse_update: new surfels from counter[0] on, in pixel order.
   void update(gpu::CommandList& cmd, const FuseBuffers& b, const gpu_layout::FuseParams& p) const;
   struct MergeBuffers {
     gpu::BufferPtr surfels, index_map, target, claim, counter, labels;  // labels: any buffer without use_labels
   };
   void merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
   void merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
+  // cleanup and remove_region: the deciding (counting) pass, compaction_scan and surfel_compact,
+  // which copies the kept surfels, in their order, from counter[1] on (the caller sets it, usually
+  // to 0). `blocks`: CompactionScan::blocks_bytes(p.surfel_count); `keep_mask`:
+  // CompactionScan::keep_mask_bytes(p.surfel_count).
+  // cleanup decides each surfel of `surfels` once, writes the kept ones as they stay (merged,
+  // penalised) to `scratch` at their own index, and compacts them from there back into `surfels`.
   // With p.merge, `merge_target` and `merge_claim` are merge_select's and merge_claim's results;
-  // without, they are not read (null binds `counter` in their place).
-  void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst, const gpu::BufferPtr& depth_m,
-               const gpu::BufferPtr& counter, const gpu_layout::CleanupParams& p,
+  // without, they are not read (null binds `surfels` in their place).
+  void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& scratch,
+               const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
+               const gpu::BufferPtr& keep_mask, const gpu_layout::CleanupParams& p,
                const gpu::BufferPtr& merge_target = nullptr, const gpu::BufferPtr& merge_claim = nullptr) const;
+  // remove_region copies the kept surfels of `src` (unchanged) to `dst`.
   void remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                      const gpu::BufferPtr& depth_m, const gpu::BufferPtr& labels, const gpu::BufferPtr& counter,
+                     const gpu::BufferPtr& blocks, const gpu::BufferPtr& keep_mask,
                      const gpu_layout::RemoveRegionParams& p) const;
 
  private:
+  // After a counting pass over `block_count` blocks: compaction_scan into counter[1], then
+  // surfel_compact copies the kept surfels from src to dst.
+  void compact_kept(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
+                    const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks, const gpu::BufferPtr& keep_mask,
+                    uint32_t block_count) const;
+
   const kernels::Preprocessor& preprocessor_;
   gpu::ComputePipeline splat_;
   gpu::ComputePipeline resolve_;
   gpu::ComputePipeline subsample_;
+  kernels::CompactionScan scan_;
   gpu::ComputePipeline associate_;
+  gpu::ComputePipeline count_new_;
   gpu::ComputePipeline update_;
   gpu::ComputePipeline merge_select_;
   gpu::ComputePipeline merge_claim_;
   gpu::ComputePipeline cleanup_;
   gpu::ComputePipeline remove_region_;
+  gpu::ComputePipeline compact_;
 };
 
 // Row-major float 3x4 of a rigid transform, as the shaders take it.

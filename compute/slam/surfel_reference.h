@@ -3,7 +3,7 @@
 // fuse_associate, fuse_update, surfel_merge_select, surfel_merge_claim, surfel_cleanup,
 // surfel_remove_region), taking the same parameter structs as the shaders.
 // Sequential loops: "atomic" minima and appends happen in index order, so results are
-// deterministic; GPU appends may come in another order (tests compare those as sets).
+// deterministic; the GPU's new and kept surfels come in the same order (a stable compaction).
 #include <cstdint>
 #include <glm/vec2.hpp>
 #include <glm/vec4.hpp>

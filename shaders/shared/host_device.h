@@ -76,6 +76,27 @@ struct GradientParams {
   uint x0, y0, x1, y1;  // pixels computed: [x0, x1) x [y0, y1) (reads outside it, clamped at the borders)
 };
 
+// ---- stable stream compaction (shared/compaction.glsl, compaction_scan.comp) ----------------
+// Kernels that keep some of their elements (fusion's new surfels, cleanup's and remove_region's
+// kept surfels) write them in source order, so that runs are repeatable whatever the threads'
+// timing. Elements go in blocks of COMPACTION_BLOCK consecutive ones, one workgroup per block:
+// a counting pass writes each block's number of kept elements, compaction_scan turns those into
+// each block's first destination, and the writing pass puts an element at its block's first
+// destination plus the number of kept elements before it in the block. Cleanup and
+// remove_region decide once: their counting pass also stores the decisions as a keep mask (a bit
+// per element: bit e % 32 of word e / 32), and surfel_compact, the writing pass, only copies.
+#define COMPACTION_BLOCK 256
+#define COMPACTION_MASK_WORDS (COMPACTION_BLOCK / 32)  // keep-mask words per block
+#define COMPACTION_PASS_COUNT 0  // the kernel writes its block's count to the blocks buffer
+#define COMPACTION_PASS_WRITE 1  // the kernel writes its kept elements
+#define COMPACTION_SCAN_BINDING_BLOCKS 0   // uint[block_count]: counts in, first destinations out
+#define COMPACTION_SCAN_BINDING_COUNTER 1  // uint[]: counter[counter_slot] is the first destination of
+                                           // block 0 in, the destination after the last kept element out
+struct CompactionScanParams {
+  uint block_count;
+  uint counter_slot;
+};
+
 // ---- surfel models ---------------------------------------------------------------------------
 // One surfel of a model, in the model's own frame (the paper's tuple: position, normal, colour,
 // weight/confidence, radius, creation and last-seen timestamps). 48 bytes, std430-compatible.
@@ -148,12 +169,15 @@ struct SubsampleParams {
 #define FUSE_BINDING_RGB 4         // live RGB8 bytes packed in uint[]
 #define FUSE_BINDING_ASSOC 5       // uint[] per live pixel: surfel index, 0xFFFFFFFF none, 0xFFFFFFFE skip
 #define FUSE_BINDING_CLAIM 6       // uint[] per surfel: lowest live pixel index associated
-#define FUSE_BINDING_COUNTER 7     // uint[4]: [0] surfel count (new surfels appended atomically)
+#define FUSE_BINDING_COUNTER 7     // uint[4]: [0] surfel count (new surfels added by compaction_scan)
 #define FUSE_BINDING_LABELS 8      // uint[] per live pixel: model label (read unless label == FUSE_ALL_LABELS)
 // fuse_update only: the surfel buffer again, written here while FUSE_BINDING_SURFELS reads it
 // through its texel view. Safe: a surfel is read and written only by the pixel that claimed it,
 // and appended surfels lie beyond every surfel that is read.
 #define FUSE_BINDING_SURFELS_OUT 9
+// fuse_count_new and fuse_update: per block of COMPACTION_BLOCK pixels of the rectangle (row-major),
+// the count of new surfels (fuse_count_new), then their first slot (compaction_scan)
+#define FUSE_BINDING_BLOCKS 10
 #define FUSE_NO_SURFEL 0xFFFFFFFFu
 #define FUSE_SKIP_PIXEL 0xFFFFFFFEu
 #define FUSE_ALL_LABELS 0xFFFFFFFFu  // FuseParams::label: no label image, every pixel is fused
@@ -181,12 +205,16 @@ struct FuseParams {
 };
 
 // ---- surfel_cleanup.comp: drop unstable / free-space-violating surfels, compact the rest ----
+// The counting pass of a compaction (see compaction) whose writing pass is surfel_compact: each
+// kept surfel goes, as it stays (merged, free-space penalty applied), to DECIDED at its own index.
 #define CLEANUP_BINDING_SRC 0
-#define CLEANUP_BINDING_DST 1
+#define CLEANUP_BINDING_DECIDED 1       // Surfel[] (written only at kept surfels' indices)
 #define CLEANUP_BINDING_DEPTH 2     // live depth (metres) at full resolution
-#define CLEANUP_BINDING_COUNTER 3   // uint[4]: [0] count to scan, [1] kept count (atomic append into DST)
+#define CLEANUP_BINDING_COUNTER 3   // uint[4]: [0] count to scan, [1] kept count (compaction_scan)
 #define CLEANUP_BINDING_MERGE_TARGET 4  // uint[] per surfel, from surfel_merge_select (read when merge != 0)
 #define CLEANUP_BINDING_MERGE_CLAIM 5   // uint[] per surfel, from surfel_merge_claim (read when merge != 0)
+#define CLEANUP_BINDING_BLOCKS 6        // uint[] per block of COMPACTION_BLOCK surfels: kept count
+#define CLEANUP_BINDING_KEEP_MASK 7     // uint[COMPACTION_MASK_WORDS] per block: a bit per kept surfel
 struct CleanupParams {
   float T_camera_model[12];
   float fx, fy, cx, cy;
@@ -240,13 +268,15 @@ struct MergeParams {
 // ---- surfel_remove_region.comp: remove the surfels that a labelled live region covers ----------
 // (Co-Fusion: when part of the background starts moving as its own model, the background's copy
 // goes.) A surfel projecting (nearest pixel) onto a live pixel labelled `label` with a depth d > 0
-// is removed when z_surfel < d * (1 + margin_rel); surfels behind that (occluded) stay. The kept
-// ones are compacted into DST (atomic append, order not kept).
+// is removed when z_surfel < d * (1 + margin_rel); surfels behind that (occluded) stay. The
+// counting pass of a compaction (see compaction) whose writing pass, surfel_compact, copies the
+// kept ones in their order.
 #define REMOVE_REGION_BINDING_SRC 0
-#define REMOVE_REGION_BINDING_DST 1
+#define REMOVE_REGION_BINDING_KEEP_MASK 1  // uint[COMPACTION_MASK_WORDS] per block: a bit per kept surfel
 #define REMOVE_REGION_BINDING_DEPTH 2    // live depth (metres) at full resolution, 0 = no reading
 #define REMOVE_REGION_BINDING_LABELS 3   // uint[] per live pixel
-#define REMOVE_REGION_BINDING_COUNTER 4  // uint[4]: [0] count to scan, [1] kept count (atomic append into DST)
+#define REMOVE_REGION_BINDING_COUNTER 4  // uint[4]: [0] count to scan, [1] kept count (compaction_scan)
+#define REMOVE_REGION_BINDING_BLOCKS 5   // uint[] per block of COMPACTION_BLOCK surfels: kept count
 struct RemoveRegionParams {
   float T_camera_model[12];
   float fx, fy, cx, cy;
@@ -256,6 +286,14 @@ struct RemoveRegionParams {
   float margin_rel;           // surfels with z < d * (1 + margin_rel) are removed
   uint pad0, pad1, pad2;
 };
+
+// ---- surfel_compact.comp: the writing pass of cleanup's and remove_region's compaction -------
+// Copies the surfels the keep mask marks, in their order, to DST from their block's first
+// destination (compaction_scan's result) on. No parameters; one workgroup per block.
+#define SURFEL_COMPACT_BINDING_SRC 0        // texel view of Surfel[]
+#define SURFEL_COMPACT_BINDING_DST 1        // Surfel[]
+#define SURFEL_COMPACT_BINDING_BLOCKS 2     // uint[] per block: first destination
+#define SURFEL_COMPACT_BINDING_KEEP_MASK 3  // uint[COMPACTION_MASK_WORDS] per block
 
 // ---- mask_vertices.comp: a level's live vertex map restricted to some models' labels --------
 // dst[x, y] = src[x, y] where the level-0 label at (x << level, y << level) (clamped to the
@@ -305,6 +343,16 @@ struct MotionResidualParams {
 struct TestFillParams {
   uint count;
   uint value_offset;  // dst[i] = i + value_offset
+};
+
+// ---- test_compaction.comp: used by the compaction tests only ---------------------------------
+// Stable compaction of the indices of the nonzero flags: out[k] = index of the k-th nonzero flag.
+#define TEST_COMPACTION_BINDING_FLAGS 0   // uint[count]
+#define TEST_COMPACTION_BINDING_BLOCKS 1  // uint[] per block of COMPACTION_BLOCK flags
+#define TEST_COMPACTION_BINDING_OUT 2     // uint[] kept indices
+struct TestCompactionParams {
+  uint count;
+  uint pass;  // COMPACTION_PASS_COUNT or COMPACTION_PASS_WRITE
 };
 
 // ---- test_texel_read.comp: used by the compute-core tests only ------------------------------

@@ -22,6 +22,13 @@ Surfel surfel_at(usamplerBuffer t, uint i) {
   s.colour_rgba8 = c.x; s.created_frame = int(c.y); s.last_seen_frame = int(c.z); s.flags = c.w;
   return s;
 }
+// Texel k (0, 1, 2) of surfel s in the layout above, for stores of whole uvec4s (lavapipe stores
+// a struct field by field, lane after lane).
+uvec4 surfel_texel(Surfel s, uint k) {
+  if (k == 0u) return floatBitsToUint(vec4(s.px, s.py, s.pz, s.confidence));
+  if (k == 1u) return floatBitsToUint(vec4(s.nx, s.ny, s.nz, s.radius_m));
+  return uvec4(s.colour_rgba8, uint(s.created_frame), uint(s.last_seen_frame), s.flags);
+}
 // Element i of a buffer of vec4s.
 vec4 texel_vec4(usamplerBuffer t, uint i) { return uintBitsToFloat(texelFetch(t, int(i))); }
 // Element i of a buffer of vec2s.

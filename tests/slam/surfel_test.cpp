@@ -139,12 +139,6 @@ bool same_surfel(const Surfel& a, const Surfel& b, float tol) {
          a.last_seen_frame == b.last_seen_frame;
 }
 
-void sort_by_position(std::vector<Surfel>& v) {
-  std::sort(v.begin(), v.end(), [](const Surfel& a, const Surfel& b) {
-    return std::tie(a.pz, a.py, a.px, a.nz, a.ny, a.nx, a.confidence) < std::tie(b.pz, b.py, b.px, b.nz, b.ny, b.nx, b.confidence);
-  });
-}
-
 // Tolerance for splatting: the projected depth/pixel may differ by float rounding between the CPU
 // and the driver, so at most 0.2% of cells may disagree on their winner or on being empty.
 TEST_F(SurfelKernels, SplatMatchesReference) {
@@ -327,7 +321,8 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
                                            gpu::Buffer::create(ctx(), live.labels.size() * 4, "assoc"),
                                            gpu::Buffer::create(ctx(), capacity * 4, "claim"),
                                            upload(std::vector<uint32_t>{uint32_t(surfels.size()), 0, 0, 0}),
-                                           upload(live.labels)};
+                                           upload(live.labels),
+                                           gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(uint32_t(rect.clamped(s.width, s.height).area())), "blocks")};
       stream().run([&](gpu::CommandList& c) {
         c.fill(b.claim, 0xFFFFFFFFu);
         c.fill(b.assoc, FUSE_SKIP_PIXEL);  // outside the rectangle nothing may be written
@@ -362,12 +357,9 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       // Tolerance 2e-5 relative: weighted averages and a normalisation in float.
       for (size_t i = 0; i < surfels.size(); ++i) bad += !same_surfel(gpu_surfels[i], cpu_surfels[i], 2e-5f);
       EXPECT_EQ(bad, 0) << "updated surfels " << what;
-      std::vector<Surfel> gpu_new(gpu_surfels.begin() + long(surfels.size()), gpu_surfels.end());
-      std::vector<Surfel> cpu_new(cpu_surfels.begin() + long(surfels.size()), cpu_surfels.end());
-      sort_by_position(gpu_new);
-      sort_by_position(cpu_new);
+      // New surfels in pixel order on both sides.
       bad = 0;
-      for (size_t i = 0; i < cpu_new.size(); ++i) bad += !same_surfel(gpu_new[i], cpu_new[i], 2e-5f);
+      for (size_t i = surfels.size(); i < cpu_surfels.size(); ++i) bad += !same_surfel(gpu_surfels[i], cpu_surfels[i], 2e-5f);
       EXPECT_EQ(bad, 0) << "new surfels " << what;
 
       // Cleanup of the CPU result, on both sides, against a live depth with free space in front
@@ -380,20 +372,23 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy, cp.width = fp.width, cp.height = fp.height;
       cp.surfel_count = capacity, cp.frame = 130, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
       cp.free_space_margin_rel = 0.05f, cp.free_space_penalty = 3.0f;
-      auto src = upload(cpu_surfels, "cleanup src");
-      auto dst = gpu::Buffer::create(ctx(), cpu_surfels.size() * sizeof(Surfel) + 48, "cleanup dst");
+      auto gpu_model = upload(cpu_surfels, "cleanup surfels");
+      auto scratch = gpu::Buffer::create(ctx(), cpu_surfels.size() * sizeof(Surfel) + 48, "cleanup scratch");
       auto counter = upload(std::vector<uint32_t>{uint32_t(cpu_surfels.size()), 0, 0, 0});
       auto depth_buffer = upload(pushed.pixels);
-      stream().run([&](gpu::CommandList& c) { pipes_->cleanup(c, src, dst, depth_buffer, counter, cp); });
+      auto blocks = gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(cp.surfel_count), "blocks");
+      auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(cp.surfel_count), "keep mask");
+      stream().run([&](gpu::CommandList& c) {
+        pipes_->cleanup(c, gpu_model, scratch, depth_buffer, counter, blocks, keep_mask, cp);
+      });
       auto cpu_kept = ref::cleanup(cpu_surfels, pushed, cp);
       const uint32_t kept = download<uint32_t>(counter, 2)[1];
       ASSERT_EQ(kept, cpu_kept.size()) << name(s);
       if (s.width >= 160) {
         EXPECT_LT(kept, cpu_surfels.size()) << "cleanup removed nothing: test data too easy";
       }
-      auto gpu_kept = download<Surfel>(dst, kept);
-      sort_by_position(gpu_kept);
-      sort_by_position(cpu_kept);
+      // Kept surfels in their order on both sides, compacted back into the model's buffer.
+      auto gpu_kept = download<Surfel>(gpu_model, kept);
       bad = 0;
       for (size_t i = 0; i < cpu_kept.size(); ++i) bad += !same_surfel(gpu_kept[i], cpu_kept[i], 1e-6f);
       EXPECT_EQ(bad, 0) << "cleanup " << name(s);
@@ -495,16 +490,18 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       cp.surfel_count = n, cp.frame = 110, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
       cp.free_space_margin_rel = 0.05f, cp.free_space_penalty = 1.0f, cp.merge = 1;
       const Image<float> no_depth(s.width, s.height);
-      auto dst = gpu::Buffer::create(ctx(), slots * sizeof(Surfel), "cleanup dst");
+      auto scratch = gpu::Buffer::create(ctx(), slots * sizeof(Surfel), "cleanup scratch");
       auto counter = upload(std::vector<uint32_t>{n, 0, 0, 0});
       auto depth_buffer = upload(no_depth.pixels);
-      stream().run([&](gpu::CommandList& c) { pipes_->cleanup(c, b.surfels, dst, depth_buffer, counter, cp, b.target, b.claim); });
+      auto blocks = gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(n), "blocks");
+      auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(n), "keep mask");
+      stream().run([&](gpu::CommandList& c) {
+        pipes_->cleanup(c, b.surfels, scratch, depth_buffer, counter, blocks, keep_mask, cp, b.target, b.claim);
+      });
       auto cpu_kept = ref::cleanup(surfels, no_depth, cp, ref::Merges{cpu_target, cpu_claim});
       const uint32_t kept = download<uint32_t>(counter, 2)[1];
       ASSERT_EQ(kept, cpu_kept.size()) << what;
-      auto gpu_kept = download<Surfel>(dst, kept);
-      sort_by_position(gpu_kept);
-      sort_by_position(cpu_kept);
+      auto gpu_kept = download<Surfel>(b.surfels, kept);  // in order, as the CPU's, back in place
       int bad = 0;
       for (size_t i = 0; i < cpu_kept.size(); ++i) bad += !same_surfel(gpu_kept[i], cpu_kept[i], 2e-5f);
       EXPECT_EQ(bad, 0) << "merging cleanup " << what;
@@ -642,11 +639,9 @@ TEST_F(SurfelKernels, FusionInTheLabelsRectangleEqualsWholeImageFusion) {
     for (int x = rect.x0; x < rect.x1; ++x) labels[size_t(y) * s.width + x] = (x + y) % 5 == 0 ? 0u : 3u;
   auto label_buffer = upload(labels, "labels");
 
+  // With merging: which duplicate merges into which depends on the surfels' indices, and new and
+  // kept surfels take their places in a fixed order, so the two models are equal surfel by surfel.
   slam::FusionParams fusion;
-  // Without merging: which duplicate merges into which depends on the surfels' indices, and new
-  // surfels are appended in no fixed order (an atomic counter), so the two models could differ
-  // by merges alone (1 run in 7). Merging has its own GPU-vs-CPU test, rectangles included.
-  fusion.merge_distance_rel = 0;
   const auto T0 = test_pose(0.1, {0.2, 0.1, -0.3});
   const auto T1 = test_pose(0.004, {0.1, 1, 0}) * T0;  // a little motion: association and new surfels
   slam::SurfelModel whole(ctx(), 1, 1024), in_rect(ctx(), 2, 1024);
@@ -655,8 +650,6 @@ TEST_F(SurfelKernels, FusionInTheLabelsRectangleEqualsWholeImageFusion) {
   pipes_->fuse(stream(), in_rect, frame, T1, 1, fusion, label_buffer, 3u, rect);
   auto a = whole.download(stream()), b = in_rect.download(stream());
   ASSERT_EQ(a.size(), b.size());
-  sort_by_position(a);
-  sort_by_position(b);
   int bad = 0, fused = 0;
   for (size_t i = 0; i < a.size(); ++i) {
     bad += !same_surfel(a[i], b[i], 1e-6f);
