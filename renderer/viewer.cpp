@@ -260,11 +260,22 @@ Image Viewer::frame(gpu::Stream& stream, const ViewRenderer& renderer, std::span
 }
 
 void Viewer::present(const Image& image) {
-  const auto& device = ctx_.device();
   if (!swapchain_ || swapchain_->extent.width == 0 || !*swapchain_->handle) {
     create_swapchain();
     if (swapchain_->extent.width == 0) return;
   }
+  const std::optional<uint32_t> index = acquire_image();
+  if (!index) return;
+  fill_staging(image);
+  record_copy(swapchain_->images[*index]);
+  if (!submit_and_present(*index)) create_swapchain();
+  ++presented_;
+}
+
+// Waits for the previous frame and acquires the next swapchain image; none when the swapchain
+// was out of date (it is recreated).
+std::optional<uint32_t> Viewer::acquire_image() {
+  const auto& device = ctx_.device();
   if (device.waitForFences({*fence_}, VK_TRUE, std::numeric_limits<uint64_t>::max()) != vk::Result::eSuccess)
     throw Error("viewer: waiting for the previous frame failed");
   uint32_t index = 0;
@@ -274,10 +285,15 @@ void Viewer::present(const Image& image) {
     index = i;
   } catch (const vk::OutOfDateKHRError&) {
     create_swapchain();
-    return;
+    return std::nullopt;
   }
   device.resetFences({*fence_});
+  return index;
+}
 
+// The image into the host-visible staging buffer at the swapchain's size and byte order (black
+// outside the image).
+void Viewer::fill_staging(const Image& image) {
   const vk::Extent2D extent = swapchain_->extent;
   const size_t bytes = static_cast<size_t>(extent.width) * extent.height * 4;
   if (!staging_ || staging_->size() != bytes)
@@ -290,8 +306,12 @@ void Viewer::present(const Image& image) {
       if (swapchain_->bgra) px = (px & 0xFF00FF00u) | ((px & 0xFFu) << 16) | ((px >> 16) & 0xFFu);
       dst[static_cast<size_t>(y) * extent.width + x] = px;
     }
+}
 
-  const vk::Image target = swapchain_->images[index];
+// Records the staging buffer's copy into `target`, with its layout transitions for the copy and
+// for presenting.
+void Viewer::record_copy(vk::Image target) {
+  const vk::Extent2D extent = swapchain_->extent;
   const vk::ImageSubresourceRange range{vk::ImageAspectFlagBits::eColor, 0, 1, 0, 1};
   cmd_.reset();
   cmd_.begin({.flags = vk::CommandBufferUsageFlagBits::eOneTimeSubmit});
@@ -321,36 +341,35 @@ void Viewer::present(const Image& image) {
                                      .subresourceRange = range};
   cmd_.pipelineBarrier2({.imageMemoryBarrierCount = 1, .pImageMemoryBarriers = &to_present});
   cmd_.end();
+}
 
+// Submits the recorded copy (after the acquisition, signalling the image's semaphore) and presents
+// the image; false when the swapchain needs recreating (suboptimal or out of date).
+bool Viewer::submit_and_present(uint32_t index) {
   const vk::SemaphoreSubmitInfo wait{.semaphore = *acquired_, .stageMask = vk::PipelineStageFlagBits2::eAllTransfer};
   const vk::SemaphoreSubmitInfo signal{.semaphore = *swapchain_->rendered[index],
                                        .stageMask = vk::PipelineStageFlagBits2::eAllTransfer};
   const vk::CommandBufferSubmitInfo cmd_info{.commandBuffer = *cmd_};
   const vk::Semaphore rendered = *swapchain_->rendered[index];
   const vk::SwapchainKHR swapchain = *swapchain_->handle;
-  bool recreate = false;
-  {
-    gpu::Queue& queue = ctx_.queue_for_worker(0);
-    std::lock_guard lock(queue.mutex);
-    const vk::raii::Queue raii_queue(device, queue.family, queue.index);
-    raii_queue.submit2(vk::SubmitInfo2{.waitSemaphoreInfoCount = 1,
-                                       .pWaitSemaphoreInfos = &wait,
-                                       .commandBufferInfoCount = 1,
-                                       .pCommandBufferInfos = &cmd_info,
-                                       .signalSemaphoreInfoCount = 1,
-                                       .pSignalSemaphoreInfos = &signal},
-                       *fence_);
-    try {
-      const vk::Result r = raii_queue.presentKHR(
-          {.waitSemaphoreCount = 1, .pWaitSemaphores = &rendered, .swapchainCount = 1, .pSwapchains = &swapchain,
-           .pImageIndices = &index});
-      recreate = r == vk::Result::eSuboptimalKHR;
-    } catch (const vk::OutOfDateKHRError&) {
-      recreate = true;
-    }
+  gpu::Queue& queue = ctx_.queue_for_worker(0);
+  std::lock_guard lock(queue.mutex);
+  const vk::raii::Queue raii_queue(ctx_.device(), queue.family, queue.index);
+  raii_queue.submit2(vk::SubmitInfo2{.waitSemaphoreInfoCount = 1,
+                                     .pWaitSemaphoreInfos = &wait,
+                                     .commandBufferInfoCount = 1,
+                                     .pCommandBufferInfos = &cmd_info,
+                                     .signalSemaphoreInfoCount = 1,
+                                     .pSignalSemaphoreInfos = &signal},
+                     *fence_);
+  try {
+    const vk::Result r = raii_queue.presentKHR(
+        {.waitSemaphoreCount = 1, .pWaitSemaphores = &rendered, .swapchainCount = 1, .pSwapchains = &swapchain,
+         .pImageIndices = &index});
+    return r != vk::Result::eSuboptimalKHR;
+  } catch (const vk::OutOfDateKHRError&) {
+    return false;
   }
-  ++presented_;
-  if (recreate) create_swapchain();
 }
 
 }  // namespace cofusion::renderer

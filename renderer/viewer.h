@@ -92,6 +92,11 @@ class Viewer {
  private:
   struct Swapchain;
   void create_swapchain();
+  // present()'s steps.
+  std::optional<uint32_t> acquire_image();
+  void fill_staging(const Image& image);
+  void record_copy(vk::Image target);
+  bool submit_and_present(uint32_t index);
   gpu::Context& ctx_;
   ViewerOptions options_;
   ViewerState state_;
