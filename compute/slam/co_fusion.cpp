@@ -550,16 +550,18 @@ std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m) {
   const auto fit = [&](const Eigen::Isometry3d& T) { return depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, T, p); };
   const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? bg.last_motion : Eigen::Isometry3d::Identity();
   const double tracked = fit(bg.motion), by_guess = fit(guess), still = fit(Eigen::Isometry3d::Identity());
-  if (tracked >= p.min_fit_ratio * std::max(by_guess, still)) return {};
-  const Eigen::Isometry3d start = by_guess >= still ? guess : Eigen::Isometry3d::Identity();
+  const bool from_guess = by_guess >= still;
+  const double start_fit = std::max(by_guess, still);
+  if (tracked >= p.min_fit_ratio * start_fit) return {};
+  const Eigen::Isometry3d start = from_guess ? guess : Eigen::Isometry3d::Identity();
   const TrackingResult odometry = track_previous_frame(bg, start);
-  const double start_fit = std::max(by_guess, still), odometry_fit = odometry.failed ? 0.0 : fit(odometry.T_reference_live);
+  const double odometry_fit = odometry.failed ? 0.0 : fit(odometry.T_reference_live);
   const bool aligned = odometry_fit > start_fit;
   bg.motion = aligned ? odometry.T_reference_live : start;
   bg.motion_refused = true;
   const auto percent = [](double share) { return std::to_string(int(std::lround(100 * share))) + "%"; };
   const std::string taken = aligned ? "the alignment with the previous frame " + percent(odometry_fit)
-                                    : (by_guess >= still ? "the constant-velocity guess " : "no motion ") + percent(start_fit);
+                                    : (from_guess ? "the constant-velocity guess " : "no motion ") + percent(start_fit);
   return "camera motion refused: it fits " + percent(tracked) + " of the previous frame's depth, " + taken +
          "; that is taken and nothing is fused into the background";
 }
@@ -661,8 +663,10 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
     recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
   }
-  previous_depth_m_.assign(depth_m, depth_m + n);
-  previous_rgb_.assign(rgb, rgb + 3 * n);
+  if (params_.camera_check.enabled) {
+    previous_depth_m_.assign(depth_m, depth_m + n);
+    previous_rgb_.assign(rgb, rgb + 3 * n);
+  }
   ++frame_;
   semantic_ = nullptr;  // the caller's, valid during process() only
 }
