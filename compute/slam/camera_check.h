@@ -5,7 +5,7 @@
 // camera moved 2 mm). The previous frame is a measurement, not a model: at video rate almost every
 // pixel of it, people included, is where the true motion puts the next frame's pixels, so a
 // tracked motion that explains far fewer of them than the constant-velocity guess (or no motion)
-// does is refused.
+// does is refused, and replaced by a slowed constant-velocity guess (or no motion).
 #include <Eigen/Geometry>
 
 #include "common/intrinsics.h"
@@ -26,6 +26,24 @@ struct CameraCheckParams {
   // (within a few percent of noise; the guess is off by the frame's change of velocity); the jumps
   // fit a third or less of what the guess does.
   double min_fit_ratio = 0.8;
+  // The camera (the background model) is tracked with the photometric term weighted by
+  // photometric_weight instead of TrackerParams::photometric_weight (which objects keep; 0 = the
+  // same). When that tracking fails or its motion is refused, the camera is tracked once more from
+  // the same guess with retry_photometric_weight (0 = no second tracking), and the result that
+  // fits the previous frame better is kept. Colour holds a far, noisy view (an office 2-5 m away,
+  // whose depth distortion ICP follows) where depth misleads; near, clean depth holds the camera
+  // where movers cover most of the view's texture (docs/experiments.md, "Bonn crowd").
+  double photometric_weight = 10.0;
+  double retry_photometric_weight = 1.0;
+  // A replaced motion continues the constant-velocity guess at this fraction of its speed, so a
+  // run of replaced frames slows down geometrically: the velocity came from frames that may
+  // already be off, and a wrong velocity carried at full speed drifts without bound (Bonn crowd:
+  // 2 cm per frame for 15 frames).
+  double replaced_motion_scale = 0.5;
+  // A refused motion stands after all when the model-tracked poses of this many refused frames in
+  // a row each fit the previous frame's depth against the tracked pose before (0 = never): the
+  // replaced path has drifted from the model, and the model's own poses agree with the frames.
+  int agreeing_frames = 3;
 };
 
 // The share of live pixels with depth (every step_px-th in x and y) that fit the reference depth

@@ -76,7 +76,6 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
       motion_(ctx),
       segmenter_(params.segmentation),
       live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "live")),
-      previous_live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.slam.preprocess.pyramid_levels, "previous live")),
       keyframes_(params.relocalisation.keyframes) {
   for (const auto& [counts, name] : {std::pair{&params.slam.tracker.iterations_per_level, "tracker"},
                                       std::pair{&params.lifecycle.object_iterations_per_level,
@@ -523,58 +522,119 @@ void CoFusion::for_each_model(const std::vector<Model*>& models, const Work& wor
   jobs.wait();
 }
 
-// Tracks every active model; when the camera's (the background's) tracking fails the camera is
-// lost and every model holds still, else the camera's motion is checked against the previous
-// frame (`refusal` says why when it is refused) and each model's residuals are computed.
+// Tracks every active model. The camera's (the background's) motion is checked against the
+// previous frame (`refusal` says why when it was replaced); when its tracking fails and the
+// previous frame cannot stand in, the camera is lost and every model holds still. Else each
+// model's residuals are computed.
 CameraState CoFusion::track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal) {
   Model& bg = *active.front();
   for_each_model(active, [&](Model& m) { track_model(m); });
+  retry_camera_tracking(bg, depth_m);
+  refusal = check_camera_motion(bg, depth_m);
   if (bg.tracking.failed) {
     lost_ = true;
     hold_still(active, bg.tracking.failure_reason);
     return CameraState::kLost;
   }
-  refusal = check_camera_motion(bg, depth_m);
   const Eigen::Isometry3d camera_motion = bg.motion;
   for_each_model(active, [&](Model& m) { settle_model(m, camera_motion); });
   return refusal.empty() ? CameraState::kTracking : CameraState::kRefused;
 }
 
+// The motion `scale` times as far along the same screw (rotation angle and translation scaled).
+static Eigen::Isometry3d scaled_motion(const Eigen::Isometry3d& T, double scale) {
+  const Eigen::AngleAxisd r(T.rotation());
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = Eigen::AngleAxisd(scale * r.angle(), r.axis()).toRotationMatrix();
+  out.translation() = scale * T.translation();
+  return out;
+}
+
+// How well the background's tracked motion, the constant-velocity guess and no motion explain the
+// previous frame's depth (CameraCheckParams; needs a previous frame).
+CoFusion::CameraFits CoFusion::camera_fits(const Model& bg, const float* depth_m) const {
+  const CameraCheckParams& p = params_.camera_check;
+  const auto fit = [&](const Eigen::Isometry3d& T) { return depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, T, p); };
+  CameraFits f;
+  f.guess = params_.slam.constant_velocity_guess ? bg.last_motion : Eigen::Isometry3d::Identity();
+  f.tracked = fit(bg.motion);
+  const double by_guess = fit(f.guess), still = fit(Eigen::Isometry3d::Identity());
+  f.from_guess = by_guess >= still;
+  f.start = std::max(by_guess, still);
+  return f;
+}
+
+// CameraCheckParams::retry_photometric_weight: a failed or refused camera tracking is tried once
+// more with the photometric term weighted differently; the retry is kept where it succeeds and
+// fits the previous frame better.
+void CoFusion::retry_camera_tracking(Model& bg, const float* depth_m) {
+  const CameraCheckParams& p = params_.camera_check;
+  const bool checkable = p.enabled && !previous_depth_m_.empty();
+  if (p.retry_photometric_weight <= 0 || p.retry_photometric_weight == bg.tracker.params().photometric_weight) return;
+  if (!bg.tracking.failed && (!checkable || !camera_fits(bg, depth_m).refused(p.min_fit_ratio))) return;
+  const TrackerParams primary = bg.tracker.params();
+  TrackerParams retry = primary;
+  retry.photometric_weight = p.retry_photometric_weight;
+  const TrackingResult first = bg.tracking;
+  const Eigen::Isometry3d first_motion = bg.motion;
+  const double first_fit = checkable && !first.failed ? camera_fits(bg, depth_m).tracked : -1.0;
+  bg.tracker.set_params(retry);
+  track_model(bg);
+  bg.tracker.set_params(primary);
+  const bool better = !bg.tracking.failed && (!checkable || camera_fits(bg, depth_m).tracked > first_fit);
+  if (better) return;
+  bg.tracking = first;
+  bg.motion = first_motion;
+}
+
 // CameraCheckParams: the background's tracked motion against the previous frame's depth. A refused
-// motion is replaced by the live frame's alignment with the previous frame, started from the
-// better of the constant-velocity guess and no motion (or by that start itself where it fits
-// better), and the background fuses nothing this frame. Returns why (empty when it stands).
+// motion is replaced by the better-fitting of the slowed constant-velocity guess and no motion,
+// unless the refused poses have agreed with each other for a few frames (tracked_poses_agree). A
+// failed tracking is replaced the same way where the replacement fits at least min_fit_ratio
+// times what the last frame's camera motion did (else the camera is lost). The background fuses
+// nothing in a replaced frame. Returns why the motion was replaced (empty when it stands or the
+// camera is lost).
 std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m) {
   const CameraCheckParams& p = params_.camera_check;
   if (!p.enabled || previous_depth_m_.empty()) return {};
-  const auto fit = [&](const Eigen::Isometry3d& T) { return depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, T, p); };
-  const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? bg.last_motion : Eigen::Isometry3d::Identity();
-  const double tracked = fit(bg.motion), by_guess = fit(guess), still = fit(Eigen::Isometry3d::Identity());
-  const bool from_guess = by_guess >= still;
-  const double start_fit = std::max(by_guess, still);
-  if (tracked >= p.min_fit_ratio * start_fit) return {};
-  const Eigen::Isometry3d start = from_guess ? guess : Eigen::Isometry3d::Identity();
-  const TrackingResult odometry = track_previous_frame(bg, start);
-  const double odometry_fit = odometry.failed ? 0.0 : fit(odometry.T_reference_live);
-  const bool aligned = odometry_fit > start_fit;
-  bg.motion = aligned ? odometry.T_reference_live : start;
-  bg.motion_refused = true;
+  const CameraFits f = camera_fits(bg, depth_m);
+  const bool failed = bg.tracking.failed;
+  if (!failed && (!f.refused(p.min_fit_ratio) || tracked_poses_agree(bg, depth_m, f))) {
+    last_camera_fit_ = f.tracked;
+    refused_T_world_tracked_.reset();
+    agreeing_refusals_ = 0;
+    return {};
+  }
+  if (failed) refused_T_world_tracked_.reset(), agreeing_refusals_ = 0;
+  if (failed && f.start < p.min_fit_ratio * last_camera_fit_) return {};
   const auto percent = [](double share) { return std::to_string(int(std::lround(100 * share))) + "%"; };
-  const std::string taken = aligned ? "the alignment with the previous frame " + percent(odometry_fit)
-                                    : (from_guess ? "the constant-velocity guess " : "no motion ") + percent(start_fit);
-  return "camera motion refused: it fits " + percent(tracked) + " of the previous frame's depth, " + taken +
-         "; that is taken and nothing is fused into the background";
+  const std::string why = failed ? "camera tracking failed (" + bg.tracking.failure_reason + ")"
+                                 : "camera motion refused: it fits " + percent(f.tracked) + " of the previous frame's depth";
+  bg.motion = f.from_guess ? scaled_motion(f.guess, p.replaced_motion_scale) : Eigen::Isometry3d::Identity();
+  if (failed) {
+    bg.tracking = TrackingResult{};
+    bg.tracking.T_reference_live = bg.motion;
+  }
+  bg.motion_refused = true;
+  last_camera_fit_ = f.start;
+  const std::string taken = (f.from_guess ? "the slowed constant-velocity guess " : "no motion ") + percent(f.start);
+  return why + ", " + taken + " is taken and nothing is fused into the background";
 }
 
-// The live frame (as the background tracks it: movers masked) aligned with the previous frame's
-// pyramid, which is made here from its depth and colour.
-TrackingResult CoFusion::track_previous_frame(Model& bg, const Eigen::Isometry3d& guess) {
-  previous_live_.upload(main_stream_, previous_depth_m_.data(), previous_rgb_.data());
-  gpu::CommandList c = main_stream_.begin();
-  preprocessor_.record_frame(c, previous_live_, kernels::FramePyramid::kUploadMetresPerUnit, preprocess_);
-  main_stream_.wait(main_stream_.submit(std::move(c)));
-  const auto& live = params_.motion_segmentation ? bg.masked : live_.levels;
-  return bg.tracker.track(bg.stream, live, previous_live_.levels, guess, bg.track_rect);
+// CameraCheckParams::agreeing_frames: whether the refused tracked pose and the one refused in the
+// frame before (both against the model) are a motion that fits the previous frame's depth, for
+// the agreeing_frames-th frame in a row: then the replaced poses were the ones off (a wrong
+// velocity carried, a jump that was not one), and the model's pose is taken back.
+bool CoFusion::tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f) {
+  const CameraCheckParams& p = params_.camera_check;
+  const Eigen::Isometry3d tracked_world = T_world_camera_ * bg.motion;
+  if (refused_T_world_tracked_) {
+    const Eigen::Isometry3d between = refused_T_world_tracked_->inverse() * tracked_world;
+    const bool agree = depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, between, p) >= p.min_fit_ratio * f.start;
+    agreeing_refusals_ = agree ? agreeing_refusals_ + 1 : 0;
+  }
+  refused_T_world_tracked_ = tracked_world;
+  return p.agreeing_frames > 0 && agreeing_refusals_ >= p.agreeing_frames;
 }
 
 // Poses: the background's motion is the camera's; every other model's follows from its own.
@@ -665,7 +725,6 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   }
   if (params_.camera_check.enabled) {
     previous_depth_m_.assign(depth_m, depth_m + n);
-    previous_rgb_.assign(rgb, rgb + 3 * n);
   }
   ++frame_;
   semantic_ = nullptr;  // the caller's, valid during process() only

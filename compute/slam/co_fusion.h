@@ -272,8 +272,9 @@ struct ModelStatus {
 
 // The camera's tracking this frame: tracked; lost (tracking failed, or relocalisation has not
 // succeeded yet: pose not updated, nothing fused); recovered (relocalised this frame); refused
-// (the tracked motion contradicted the previous frame's depth, CameraCheckParams: the better of
-// the constant-velocity guess and no motion is taken, nothing is fused into the background).
+// (the tracked motion contradicted the previous frame's depth, or tracking failed where a
+// stand-in still fits it, CameraCheckParams: the better of the slowed constant-velocity guess and
+// no motion is taken, nothing is fused into the background).
 enum class CameraState { kTracking, kLost, kRecovered, kRefused };
 const char* to_string(CameraState state);
 
@@ -350,8 +351,16 @@ class CoFusion {
   template <typename Work>
   static void for_each_model(const std::vector<Model*>& models, const Work& work);
   CameraState track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal);
+  struct CameraFits {
+    double tracked = 0, start = 0;  // depth_fit of the tracked motion and of the better start
+    bool from_guess = true;         // the better start is the constant-velocity guess (else none)
+    Eigen::Isometry3d guess;
+    bool refused(double min_fit_ratio) const { return tracked < min_fit_ratio * start; }
+  };
+  CameraFits camera_fits(const Model& bg, const float* depth_m) const;
+  void retry_camera_tracking(Model& bg, const float* depth_m);
+  bool tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f);
   std::string check_camera_motion(Model& bg, const float* depth_m);
-  TrackingResult track_previous_frame(Model& bg, const Eigen::Isometry3d& guess);
   void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);
   void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
                const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
@@ -415,11 +424,14 @@ class CoFusion {
   MotionKernels motion_;
   segmentation::MotionSegmenter segmenter_;
   kernels::FramePyramid live_;
-  // The previous frame (CameraCheckParams): its depth and colour, and its pyramid, made from them
-  // only when a refused motion is replaced by an alignment with it.
+  // The previous frame's depth (CameraCheckParams; kept only when the check is on) and the
+  // depth_fit of the camera motion the last checked frame took.
   std::vector<float> previous_depth_m_;
-  std::vector<uint8_t> previous_rgb_;
-  kernels::FramePyramid previous_live_;
+  double last_camera_fit_ = 0;
+  // The last frame's refused tracked pose (T_world_camera) and how many refused frames in a row
+  // agreed with the one before (CameraCheckParams::agreeing_frames).
+  std::optional<Eigen::Isometry3d> refused_T_world_tracked_;
+  int agreeing_refusals_ = 0;  // depth_fit of the camera motion the last checked frame took
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels

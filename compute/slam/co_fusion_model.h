@@ -67,6 +67,8 @@ struct CoFusion::Model {
       t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
       t.outline_photometric = p.lifecycle.object_outline_photometric;
       t.iterations_per_level = p.lifecycle.object_iterations_per_level;
+    } else if (p.camera_check.enabled && p.camera_check.photometric_weight > 0) {
+      t.photometric_weight = p.camera_check.photometric_weight;
     }
     return t;
   }
