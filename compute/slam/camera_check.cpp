@@ -27,4 +27,12 @@ double depth_fit(const float* depth_live_m, const float* depth_reference_m, cons
   return with_depth > 0 ? double(fitting) / double(with_depth) : 0.0;
 }
 
+Eigen::Isometry3d scaled_motion(const Eigen::Isometry3d& T, double scale) {
+  const Eigen::AngleAxisd r(T.rotation());
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = Eigen::AngleAxisd(scale * r.angle(), r.axis()).toRotationMatrix();
+  out.translation() = scale * T.translation();
+  return out;
+}
+
 }  // namespace cofusion::slam

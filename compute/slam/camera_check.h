@@ -53,4 +53,8 @@ struct CameraCheckParams {
 double depth_fit(const float* depth_live_m, const float* depth_reference_m, const Intrinsics& intrinsics,
                  const Eigen::Isometry3d& T_reference_live, const CameraCheckParams& params);
 
+// The motion `scale` times as far: rotation angle (about the same axis) and translation scaled
+// (CameraCheckParams::replaced_motion_scale). 0 gives no motion, 1 the motion itself.
+Eigen::Isometry3d scaled_motion(const Eigen::Isometry3d& T, double scale);
+
 }  // namespace cofusion::slam

@@ -541,15 +541,6 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active, const floa
   return refusal.empty() ? CameraState::kTracking : CameraState::kRefused;
 }
 
-// The motion `scale` times as far along the same screw (rotation angle and translation scaled).
-static Eigen::Isometry3d scaled_motion(const Eigen::Isometry3d& T, double scale) {
-  const Eigen::AngleAxisd r(T.rotation());
-  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
-  out.linear() = Eigen::AngleAxisd(scale * r.angle(), r.axis()).toRotationMatrix();
-  out.translation() = scale * T.translation();
-  return out;
-}
-
 // How well the background's tracked motion, the constant-velocity guess and no motion explain the
 // previous frame's depth (CameraCheckParams; needs a previous frame).
 CoFusion::CameraFits CoFusion::camera_fits(const Model& bg, const float* depth_m) const {

@@ -85,5 +85,21 @@ TEST_F(DepthFit, PixelsWithoutDepthAreNotCounted) {
   EXPECT_EQ(depth_fit(live.data(), reference.data(), k, motion(50, 0, 0, 0), params), 0.0);
 }
 
+TEST(ScaledMotion, ScalesAngleAndTranslationAboutTheSameAxis) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.02, -0.01, 0.04);
+  EXPECT_TRUE(scaled_motion(T, 1.0).isApprox(T, 1e-12));
+  EXPECT_TRUE(scaled_motion(T, 0.0).isApprox(Eigen::Isometry3d::Identity(), 1e-12));
+  const Eigen::Isometry3d half = scaled_motion(T, 0.5);
+  const Eigen::AngleAxisd r(half.rotation());
+  EXPECT_NEAR(r.angle(), 0.15, 1e-12);
+  EXPECT_TRUE(r.axis().isApprox(Eigen::Vector3d(1, 2, -1).normalized(), 1e-12));
+  EXPECT_TRUE(half.translation().isApprox(Eigen::Vector3d(0.01, -0.005, 0.02), 1e-12));
+  // Halving twice is a quarter; no motion stays none.
+  EXPECT_TRUE(scaled_motion(half, 0.5).isApprox(scaled_motion(T, 0.25), 1e-12));
+  EXPECT_TRUE(scaled_motion(Eigen::Isometry3d::Identity(), 0.5).isApprox(Eigen::Isometry3d::Identity(), 1e-12));
+}
+
 }  // namespace
 }  // namespace cofusion::slam
