@@ -439,11 +439,16 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   // rectangle) and then cleanup (per COMPACTION_BLOCK surfels), one after the other.
   const gpu::BufferPtr& blocks = model.compaction_blocks(std::max(incoming, most_surfels));
   const gpu::BufferPtr& keep_mask = model.compaction_keep_mask(most_surfels);
-  // Association reads only the index-map rows of the rectangle's pixels and the claims of
-  // existing surfels: nothing else needs clearing.
+  // Association reads the index-map rows of the rectangle's pixels, the ring of
+  // new_surfel_clearance_cells cells around them (fuse_associate's depth_agrees_around), and the
+  // claims of existing surfels: nothing else needs clearing. A row left out would hold an earlier
+  // frame's surfel indices (or, at first, uninitialised memory).
   const size_t row_bytes = size_t(k.width) * size_t(S) * 8;
+  const int ring_rows = (std::max(params.new_surfel_clearance_cells, 0) + S - 1) / S;
+  const int clear_y0 = std::max(area.y0 - ring_rows, 0), clear_y1 = std::min(area.y1 + ring_rows, k.height);
   stream.run([&](gpu::CommandList& cmd) {
-    cmd.fill(index_map, 0xFFFFFFFFu, size_t(area.y0) * size_t(S) * row_bytes, size_t(area.height()) * size_t(S) * row_bytes);
+    cmd.fill(index_map, 0xFFFFFFFFu, size_t(clear_y0) * size_t(S) * row_bytes,
+             size_t(clear_y1 - clear_y0) * size_t(S) * row_bytes);
     cmd.fill(model.claim_, 0xFFFFFFFFu, 0, size_t(model.count_) * 4);
     cmd.barrier();
     cmd.set_profile_label("for fusion");
