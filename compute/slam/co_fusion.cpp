@@ -529,8 +529,10 @@ void CoFusion::for_each_model(const std::vector<Model*>& models, const Work& wor
 CameraState CoFusion::track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal) {
   Model& bg = *active.front();
   for_each_model(active, [&](Model& m) { track_model(m); });
-  retry_camera_tracking(bg, depth_m);
-  refusal = check_camera_motion(bg, depth_m);
+  std::optional<CameraFits> fits;
+  if (params_.camera_check.enabled && !previous_depth_m_.empty()) fits = camera_fits(bg, depth_m);
+  retry_camera_tracking(bg, depth_m, fits);
+  refusal = check_camera_motion(bg, depth_m, fits);
   if (bg.tracking.failed) {
     lost_ = true;
     hold_still(active, bg.tracking.failure_reason);
@@ -557,23 +559,27 @@ CoFusion::CameraFits CoFusion::camera_fits(const Model& bg, const float* depth_m
 
 // CameraCheckParams::retry_photometric_weight: a failed or refused camera tracking is tried once
 // more with the photometric term weighted differently; the retry is kept where it succeeds and
-// fits the previous frame better.
-void CoFusion::retry_camera_tracking(Model& bg, const float* depth_m) {
+// fits the previous frame better. `fits` (none without a check) then holds the retry's fit.
+void CoFusion::retry_camera_tracking(Model& bg, const float* depth_m, std::optional<CameraFits>& fits) {
   const CameraCheckParams& p = params_.camera_check;
-  const bool checkable = p.enabled && !previous_depth_m_.empty();
-  if (p.retry_photometric_weight <= 0 || p.retry_photometric_weight == bg.tracker.params().photometric_weight) return;
-  if (!bg.tracking.failed && (!checkable || !camera_fits(bg, depth_m).refused(p.min_fit_ratio))) return;
   const TrackerParams primary = bg.tracker.params();
-  TrackerParams retry = primary;
-  retry.photometric_weight = p.retry_photometric_weight;
+  if (p.retry_photometric_weight <= 0 || p.retry_photometric_weight == primary.photometric_weight) return;
+  if (!bg.tracking.failed && (!fits || !fits->refused(p.min_fit_ratio))) return;
   const TrackingResult first = bg.tracking;
   const Eigen::Isometry3d first_motion = bg.motion;
-  const double first_fit = checkable && !first.failed ? camera_fits(bg, depth_m).tracked : -1.0;
+  TrackerParams retry = primary;
+  retry.photometric_weight = p.retry_photometric_weight;
   bg.tracker.set_params(retry);
   track_model(bg);
   bg.tracker.set_params(primary);
-  const bool better = !bg.tracking.failed && (!checkable || camera_fits(bg, depth_m).tracked > first_fit);
-  if (better) return;
+  if (!bg.tracking.failed) {
+    if (!fits) return;
+    const double retry_fit = depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, bg.motion, p);
+    if (first.failed || retry_fit > fits->tracked) {
+      fits->tracked = retry_fit;
+      return;
+    }
+  }
   bg.tracking = first;
   bg.motion = first_motion;
 }
@@ -585,10 +591,10 @@ void CoFusion::retry_camera_tracking(Model& bg, const float* depth_m) {
 // times what the last frame's camera motion did (else the camera is lost). The background fuses
 // nothing in a replaced frame. Returns why the motion was replaced (empty when it stands or the
 // camera is lost).
-std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m) {
+std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m, const std::optional<CameraFits>& fits) {
   const CameraCheckParams& p = params_.camera_check;
-  if (!p.enabled || previous_depth_m_.empty()) return {};
-  const CameraFits f = camera_fits(bg, depth_m);
+  if (!fits) return {};
+  const CameraFits& f = *fits;
   const bool failed = bg.tracking.failed;
   if (!failed && (!f.refused(p.min_fit_ratio) || tracked_poses_agree(bg, depth_m, f))) {
     last_camera_fit_ = f.tracked;

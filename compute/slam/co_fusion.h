@@ -354,13 +354,13 @@ class CoFusion {
   struct CameraFits {
     double tracked = 0, start = 0;  // depth_fit of the tracked motion and of the better start
     bool from_guess = true;         // the better start is the constant-velocity guess (else none)
-    Eigen::Isometry3d guess;
+    Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();
     bool refused(double min_fit_ratio) const { return tracked < min_fit_ratio * start; }
   };
   CameraFits camera_fits(const Model& bg, const float* depth_m) const;
-  void retry_camera_tracking(Model& bg, const float* depth_m);
+  void retry_camera_tracking(Model& bg, const float* depth_m, std::optional<CameraFits>& fits);
   bool tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f);
-  std::string check_camera_motion(Model& bg, const float* depth_m);
+  std::string check_camera_motion(Model& bg, const float* depth_m, const std::optional<CameraFits>& fits);
   void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);
   void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
                const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
@@ -431,7 +431,7 @@ class CoFusion {
   // The last frame's refused tracked pose (T_world_camera) and how many refused frames in a row
   // agreed with the one before (CameraCheckParams::agreeing_frames).
   std::optional<Eigen::Isometry3d> refused_T_world_tracked_;
-  int agreeing_refusals_ = 0;  // depth_fit of the camera motion the last checked frame took
+  int agreeing_refusals_ = 0;
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels
