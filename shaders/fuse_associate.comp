@@ -40,7 +40,7 @@ void main() {
   if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
   uint i = px.y * p.width + px.x;
   vec4 v = texel_vec4(vertex, i), n = texel_vec4(normal, i);
-  if (v.w == 0.0 || n.w == 0.0 || (p.label != FUSE_ALL_LABELS && texel_uint(labels, i) != p.label)) {
+  if (v.w == 0.0 || n.w == 0.0 || (p.label_mask != FUSE_ALL_LABELS && !LABEL_IN_MASK(texel_uint(labels, i), p.label_mask))) {
     assoc[i] = FUSE_SKIP_PIXEL;
     return;
   }

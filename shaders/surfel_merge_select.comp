@@ -18,7 +18,7 @@ layout(push_constant) uniform Push { MergeParams p; };
 bool cell_fused(int x, int y) {
   const uint px = uint(x) / p.grid_scale, py = uint(y) / p.grid_scale;
   if (px < p.rect_x0 || px >= min(p.rect_x1, p.width) || py < p.rect_y0 || py >= min(p.rect_y1, p.height)) return false;
-  return p.use_labels == 0u || texel_uint(labels, py * p.width + px) == p.label;
+  return p.use_labels == 0u || LABEL_IN_MASK(texel_uint(labels, py * p.width + px), p.label_mask);
 }
 
 uint merge_target(uint i) {

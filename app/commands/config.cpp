@@ -276,13 +276,16 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     q.field("confirm_frames", config.semantic.confirm_frames)
         .field("min_instance_area_fraction", config.semantic.min_instance_area_fraction)
         .field("join_min_iou", config.semantic.join_min_iou)
-        .field("exclude_margin_px", config.semantic.exclude_margin_px);
+        .field("exclude_margin_px", config.semantic.exclude_margin_px)
+        .field("resting_max_unexplained_fraction", config.semantic.resting_max_unexplained_fraction);
     if (config.semantic.exclude_margin_px < 0 || config.semantic.exclude_margin_px > 64)
       throw Error(q.where() + ".exclude_margin_px: must be 0..64");
     if (config.semantic.confirm_frames < 1 ||
         !(config.semantic.min_instance_area_fraction >= 0 && config.semantic.min_instance_area_fraction <= 1) ||
-        !(config.semantic.join_min_iou > 0 && config.semantic.join_min_iou <= 1))
-      throw Error(q.where() + ": confirm_frames must be >= 1, min_instance_area_fraction in [0, 1] and join_min_iou in (0, 1]");
+        !(config.semantic.join_min_iou > 0 && config.semantic.join_min_iou <= 1) ||
+        !(config.semantic.resting_max_unexplained_fraction >= 0 && config.semantic.resting_max_unexplained_fraction <= 1))
+      throw Error(q.where() + ": confirm_frames must be >= 1, min_instance_area_fraction in [0, 1], join_min_iou in (0, 1] "
+                  "and resting_max_unexplained_fraction in [0, 1]");
   });
   s.section("rest", file + ": rest", [&](Section& q) {
     q.field("prefer_rest", config.rest.prefer_rest)

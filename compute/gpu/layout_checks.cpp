@@ -22,7 +22,7 @@ static_assert(sizeof(ResolveParams) == 112 && offsetof(ResolveParams, width) == 
 static_assert(sizeof(SubsampleParams) == 32 && offsetof(SubsampleParams, x0) == 16);
 static_assert(sizeof(FuseParams) == 128 && offsetof(FuseParams, colour_gain) == 120 &&
               offsetof(FuseParams, new_surfel_clearance_cells) == 124 && offsetof(FuseParams, fx) == 48 &&
-              offsetof(FuseParams, label) == 100 &&
+              offsetof(FuseParams, label_mask) == 100 &&
               offsetof(FuseParams, rect_x0) == 104);
 // Vulkan guarantees 128 bytes of push constants.
 static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(CleanupParams) <= 128 &&
@@ -30,7 +30,7 @@ static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(
 static_assert(sizeof(CleanupParams) == 100 && offsetof(CleanupParams, free_space_penalty) == 92 &&
               offsetof(CleanupParams, merge) == 96);
 static_assert(sizeof(MergeParams) == 120 && offsetof(MergeParams, max_source_confidence) == 116 && sizeof(MergeParams) <= 128 && offsetof(MergeParams, width) == 64 && offsetof(MergeParams, rect_x0) == 80 &&
-              offsetof(MergeParams, window_cells) == 96 && offsetof(MergeParams, label) == 112);
+              offsetof(MergeParams, window_cells) == 96 && offsetof(MergeParams, label_mask) == 112);
 static_assert(sizeof(RemoveRegionParams) == 96 && offsetof(RemoveRegionParams, fx) == 48 &&
               offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80);
 static_assert(sizeof(MaskVerticesParams) == 40 && offsetof(MaskVerticesParams, level) == 16 &&

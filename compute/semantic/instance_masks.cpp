@@ -156,6 +156,19 @@ cv::Mat grow_from_depth(const cv::Mat& depth_m, const cv::Mat& valid, const cv::
   return mask;
 }
 
+// The share of a mask's pixels (CV_8UC1) whose person probability (CV_32FC1, same size) is above
+// `threshold`; 0 for an empty mask.
+double person_share(const cv::Mat& mask, const cv::Mat& probability, float threshold) {
+  int pixels = 0, person = 0;
+  for (int y = 0; y < mask.rows; ++y)
+    for (int x = 0; x < mask.cols; ++x)
+      if (mask.at<uint8_t>(y, x)) {
+        ++pixels;
+        person += probability.at<float>(y, x) > threshold;
+      }
+  return pixels == 0 ? 0.0 : double(person) / double(pixels);
+}
+
 }  // namespace
 
 InstanceMasks instance_masks(const std::vector<Detection>& detections, const cv::Mat& depth_m,
@@ -183,11 +196,18 @@ InstanceMasks instance_masks(const std::vector<Detection>& detections, const cv:
     const cv::Rect box = to_pixels(det.box_px, depth_m.size());
     if (box.area() == 0) continue;
     cv::Mat mask;
+    int class_id = det.class_id;
+    std::string class_name = det.class_name;
     if (det.class_id == kCocoPersonClass && !person_probability.empty()) {
       cv::compare(person_probability(box), params.person_probability, mask, cv::CMP_GT);
       if (params.grow_people_over_depth) mask = grow_from_depth(depth_m, valid, box, intrinsics, params, mask);
     } else {
       mask = grow_from_depth(depth_m, valid, box, intrinsics, params);
+      if (!person_probability.empty() && person_share(mask, person_probability(box), params.person_probability) >=
+                                             params.person_override_fraction) {
+        class_id = kCocoPersonClass;
+        class_name = std::string(kCocoClassNames[kCocoPersonClass]);
+      }
     }
     if (out.instances.size() >= 65535) break;
     const uint16_t id = static_cast<uint16_t>(out.instances.size() + 1);
@@ -200,7 +220,7 @@ InstanceMasks instance_masks(const std::vector<Detection>& detections, const cv:
     for (int y = 0; y < box.height; ++y)
       for (int x = 0; x < box.width; ++x)
         if (mask.at<uint8_t>(y, x) && ids_box.at<uint16_t>(y, x) == 0) ids_box.at<uint16_t>(y, x) = id;
-    out.instances.push_back({id, det.class_id, det.class_name, det.score, det.box_px, pixels});
+    out.instances.push_back({id, class_id, class_name, det.score, det.box_px, pixels});
   }
   return out;
 }

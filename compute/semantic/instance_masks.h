@@ -16,6 +16,8 @@
 //      fewer than min_pixels or less than min_box_fraction of its box is dropped.
 // People (class 0) come from the person segmenter's probability instead when one is given: the
 // box's pixels above person_probability, grown over depth as in step 3 (grow_people_over_depth).
+// An instance of another class that lies mostly on the segmenter's pixels is a person
+// (person_override_fraction).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -45,6 +47,10 @@ struct InstanceMaskParams {
   int min_pixels = 50;             // smaller instances are dropped
   float min_box_fraction = 0.05f;  // instances covering less of their box are dropped
   float person_probability = 0.5f; // person-segmenter threshold (0..1)
+  // A box of another class whose mask lies on the person segmenter's pixels for at least this
+  // fraction is a person (the detector names a person seen from close up or from behind an
+  // elephant or a bed now and then; the segmenter, trained on people only, is the better judge).
+  float person_override_fraction = 0.6f;
   // The segmenter (trained on selfies) misses most of the legs: its pixels seed the region growing
   // of step 3 instead of the box's centre, which adds what joins them over continuous depth (cut
   // from the floor and the background like any object).

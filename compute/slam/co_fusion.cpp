@@ -98,8 +98,10 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
                 "rigid_min_explained_fraction in [0, 1], mover_min_overlap in (0, 1]");
   const SemanticParams& sem = params.semantic;
   if (sem.confirm_frames < 1 || !(sem.min_instance_area_fraction >= 0 && sem.min_instance_area_fraction < 1) ||
-      !(sem.join_min_iou > 0 && sem.join_min_iou <= 1))
-    throw Error("semantic: confirm_frames must be >= 1, min_instance_area_fraction in [0, 1), join_min_iou in (0, 1]");
+      !(sem.join_min_iou > 0 && sem.join_min_iou <= 1) ||
+      !(sem.resting_max_unexplained_fraction >= 0 && sem.resting_max_unexplained_fraction <= 1))
+    throw Error("semantic: confirm_frames must be >= 1, min_instance_area_fraction in [0, 1), join_min_iou in (0, 1], "
+                "resting_max_unexplained_fraction in [0, 1]");
   main_stream_.set_profile_group("frame");
   preprocess_ = params.slam.effective_preprocess();
   // Object trackers differ from the background's (the outline term reads the live gradients).
@@ -161,7 +163,8 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   gpu::CommandList c = m.stream.begin();
   surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_, rect);
   const bool unclaimed = m.id == 0 && unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
-  const uint32_t keep = (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u);
+  // The background also tracks with the pixels of resting models: their surfels are still its own.
+  const uint32_t keep = (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u) | (m.id == 0 ? resting_slots_ : 0u);
   if (params_.motion_segmentation) motion_.mask_levels(c, live_.levels, m.masked, labels_, keep, m.track_rect);
   // Tracking's submissions are not otherwise ordered after this one: the host waits.
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
@@ -289,7 +292,7 @@ bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding, const FrameF
 // segmentation's input).
 void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
   const RestParams& rest = params_.rest;
-  if (m.id != 0 && rest.prefer_rest && !m.tracking.failed && params_.motion_segmentation) {
+  if (m.id != 0 && !m.resting && rest.prefer_rest && !m.tracking.failed && params_.motion_segmentation) {
     const TrackerParams& tp = m.tracker.params();
     const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
     // The tracked motion's fit is tracking's last iteration's (at the pose before its final,
@@ -376,7 +379,8 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   });
 }
 
-void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect) {
+void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect,
+                          uint32_t also_slots) {
   const Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
   for (int duplicate_slot : duplicate_slots)
     surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(duplicate_slot),
@@ -385,7 +389,7 @@ void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, con
   const FusionStats stats =
       surfels_.fuse(m.stream, m.surfels, live_, T_camera_model, frame_, params_.slam.fusion,
                     params_.motion_segmentation ? labels_ : nullptr, static_cast<unsigned>(m.slot),
-                    m.id == 0 ? std::nullopt : std::optional(fuse_rect), float(m.tracking.live_intensity_gain));
+                    m.id == 0 ? std::nullopt : std::optional(fuse_rect), float(m.tracking.live_intensity_gain), also_slots);
   m.culled += stats.culled;
 }
 
@@ -418,6 +422,9 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   std::vector<Model*> active = live_models();
   for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {};
   set_work_rects(active);
+  resting_slots_ = 0;
+  for (const Model* m : active)
+    if (m->resting) resting_slots_ |= 1u << m->slot;
   live_.upload(main_stream_, depth_m, rgb);
   stage("upload");
 
@@ -528,7 +535,9 @@ void CoFusion::for_each_model(const std::vector<Model*>& models, const Work& wor
 // model's residuals are computed.
 CameraState CoFusion::track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal) {
   Model& bg = *active.front();
-  for_each_model(active, [&](Model& m) { track_model(m); });
+  for_each_model(active, [&](Model& m) {
+    if (!m.resting) track_model(m);
+  });
   std::optional<CameraFits> fits;
   if (params_.camera_check.enabled && !previous_depth_m_.empty()) fits = camera_fits(bg, depth_m);
   retry_camera_tracking(bg, depth_m, fits);
@@ -539,6 +548,13 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active, const floa
     return CameraState::kLost;
   }
   const Eigen::Isometry3d camera_motion = bg.motion;
+  for (Model* m : active)
+    if (m->resting) {  // stays where it is in the world; fuses when the background does
+      m->tracked = true;
+      m->tracking = bg.tracking;
+      m->motion = camera_motion;
+      m->motion_refused = bg.motion_refused;
+    }
   for_each_model(active, [&](Model& m) { settle_model(m, camera_motion); });
   return refusal.empty() ? CameraState::kTracking : CameraState::kRefused;
 }
@@ -680,9 +696,13 @@ void CoFusion::label_all_background(const float* depth_m, const std::vector<uint
 void CoFusion::fuse_models(const std::vector<int>& spawned_slots) {
   const std::vector<Model*> fusing = live_models();
   const std::vector<PixelRect> fuse_rects = slot_rects(slots_, intrinsics_.width, intrinsics_.height);
+  // The background fuses the pixels of resting models too: it keeps their surfels to track with.
+  uint32_t resting = 0;
+  for (const Model* m : fusing)
+    if (m->resting) resting |= 1u << m->slot;
   for_each_model(fusing, [&](Model& m) {
     const bool is_new = std::find(spawned_slots.begin(), spawned_slots.end(), m.slot) != spawned_slots.end();
-    fuse_model(m, is_new ? std::vector<int>{} : spawned_slots, fuse_rects[size_t(m.slot)]);
+    fuse_model(m, is_new ? std::vector<int>{} : spawned_slots, fuse_rects[size_t(m.slot)], m.id == 0 ? resting : 0u);
   });
 }
 

@@ -343,7 +343,8 @@ class CoFusion {
   void track_model(Model& m);
   void settle_model(Model& m, const Eigen::Isometry3d& camera_motion);
   void compute_residuals(Model& m);
-  void fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect);
+  // Fuses the pixels of m's slot and of `also_slots` (bit s for slot s).
+  void fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect, uint32_t also_slots = 0);
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
   // The steps of process(), in order.
   std::vector<uint8_t> begin_semantic_frame(const SemanticFrame* semantic);
@@ -403,7 +404,11 @@ class CoFusion {
   std::vector<Model*> live_models() const;  // the active models, background first
   std::vector<char> mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const;
   void apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken, const float* depth_m,
-                       CoFusionFrame& out, std::vector<int>& spawned_slots);
+                       const std::vector<float>& background_costs, CoFusionFrame& out, std::vector<int>& spawned_slots);
+  bool reactivate_at_instance(const MaskInstance& instance, const Eigen::Vector3d& centroid_world, int slot,
+                              CoFusionFrame& out);
+  void wake_resting(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots, CoFusionFrame& out,
+                    std::vector<int>& spawned_slots);
   void drop_nonrigid(const std::vector<Model*>& order, const std::vector<uint8_t>& seg_labels,
                      const std::vector<int>& labelled, const std::vector<int>& explained,
                      std::vector<uint8_t>& slots, CoFusionFrame& out);
@@ -451,6 +456,7 @@ class CoFusion {
   int last_recovery_frame_ = -1000000;
   // This frame's instance masks (null without), and the instances no model covers yet.
   const SemanticFrame* semantic_ = nullptr;
+  uint32_t resting_slots_ = 0;  // this frame's label slots of resting models (Model::resting)
   InstanceCandidates instance_candidates_;
   int next_id_ = 1;
   int frame_ = 0;

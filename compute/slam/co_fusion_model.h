@@ -40,6 +40,31 @@ inline void transform_surfels(std::vector<Surfel>& surfels, const Eigen::Isometr
   }
 }
 
+// Where a model's surfels are: their mean and the distance from it within which 90% of them lie
+// (model frame, metres; at least 5 cm).
+struct SurfelExtent {
+  Eigen::Vector3d centre_model = Eigen::Vector3d::Zero();
+  double radius_m = 0;
+};
+inline SurfelExtent surfel_extent(const std::vector<Surfel>& surfels) {
+  SurfelExtent e;
+  if (surfels.empty()) return e;
+  for (const Surfel& s : surfels) e.centre_model += Eigen::Vector3d(s.px, s.py, s.pz);
+  e.centre_model /= double(surfels.size());
+  std::vector<double> d;
+  d.reserve(surfels.size());
+  for (const Surfel& s : surfels) d.push_back((Eigen::Vector3d(s.px, s.py, s.pz) - e.centre_model).norm());
+  const auto at = d.begin() + std::ptrdiff_t(d.size() * 9 / 10);
+  std::nth_element(d.begin(), at, d.end());
+  e.radius_m = std::max(0.05, at == d.end() ? d.back() : *at);
+  return e;
+}
+
+// Of `pixels`, the share whose background cost is above max_cost_m, among those the background's
+// prediction covers (cost not NaN); nullopt when it covers fewer than half of them.
+std::optional<double> background_unexplained_share(const std::vector<float>& background_costs,
+                                                   const std::vector<size_t>& pixels, float max_cost_m);
+
 }  // namespace cofusion::slam::internal
 
 namespace cofusion::slam {
@@ -116,6 +141,11 @@ struct CoFusion::Model {
   int last_frame;
   int unseen_frames = 0;
   bool on_probation = true;  // objects: not yet shown to move relative to the background
+  // A model spawned from an instance mask that has not been seen to move (SemanticParams::
+  // resting_max_unexplained_fraction): it keeps its world pose without being tracked, and the
+  // background keeps its surfels and tracks the camera with its pixels.
+  bool resting = false;
+  std::optional<internal::SurfelExtent> extent;  // of its surfels, from when it last went inactive
   PoseHistory trajectory;  // (frame, T_world_model) while active
   PoseHistory seen_trajectory;  // of those, the frames it was tracked in
   ClassVotes class_votes;  // its recognitions by instance masks (semantic_masks.h)

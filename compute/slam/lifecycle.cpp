@@ -2,6 +2,7 @@
 // segmentation to model slots; rigidity trials, merges, spawns, re-activation and retirement;
 // instance masks; movers.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -53,7 +54,8 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       ++slot_pixels[size_t(sp.slot)];
     }
   }
-  if (semantic_) apply_instances(slots, slot_pixels, taken, depth_m, out, spawned_slots);
+  if (semantic_) apply_instances(slots, slot_pixels, taken, depth_m, costs.front(), out, spawned_slots);
+  wake_resting(costs.front(), slots, out, spawned_slots);
   upload_labels(slots);
   for (const SpawnPlan::Spawn& sp : plan.spawns)
     spawn_or_reactivate(sp, plan.regions[sp.region], slot_pixels, out, spawned_slots);
@@ -310,7 +312,8 @@ void CoFusion::update_presence(const std::vector<int>& slot_pixels, CoFusionFram
 // instance no model covers for confirm_frames consecutive frames spawns a model (no probation: it
 // need not move), its surfels removed from the older models as a motion spawn's are.
 void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken,
-                               const float* depth_m, CoFusionFrame& out, std::vector<int>& spawned_slots) {
+                               const float* depth_m, const std::vector<float>& background_costs, CoFusionFrame& out,
+                               std::vector<int>& spawned_slots) {
   const SemanticParams& sp = params_.semantic;
   const size_t n = slots.size();
   const bool modelling = sp.mode != SegmentationMode::kMotion;
@@ -373,11 +376,15 @@ void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& sl
       slots[i] = static_cast<uint8_t>(slot);
       ++slot_pixels[size_t(slot)];
     }
+    if (reactivate_at_instance(*uncovered[k], T_world_camera_ * *centroids[k], slot, out)) continue;
     Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
     T_camera_model.translation() = *centroids[k];
     Model& m = create_model(slot, T_world_camera_ * T_camera_model);
     m.on_probation = false;
-    if (seen[k].previous_centroid) {
+    const std::optional<double> unexplained =
+        background_unexplained_share(background_costs, uncovered[k]->pixels, params_.costs.max_explained_cost_m);
+    m.resting = !unexplained || *unexplained <= sp.resting_max_unexplained_fraction;
+    if (!m.resting && seen[k].previous_centroid) {
       const Eigen::Vector3d step = *centroids[k] - *seen[k].previous_centroid;
       if (step.norm() <= params_.lifecycle.spawn_max_velocity_guess_m) {
         m.last_motion = Eigen::Translation3d(-step) * Eigen::Isometry3d::Identity();
@@ -386,12 +393,82 @@ void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& sl
     }
     m.pixels = int(uncovered[k]->pixels.size());
     m.class_votes.add(uncovered[k]->class_name);
-    spawned_slots.push_back(slot);
+    // A resting model's surfels stay in the background too; a moving one's are removed from it.
+    if (!m.resting) spawned_slots.push_back(slot);
     char share[32];
     std::snprintf(share, sizeof share, "%.1f%%", 100.0 * double(uncovered[k]->pixels.size()) / double(n));
     out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " from a " +
                          uncovered[k]->class_name + " instance seen in " + std::to_string(seen[k].frames) + " frames (" + share +
-                         " of the image)");
+                         " of the image" + (m.resting ? ", resting)" : ")"));
+  }
+}
+
+// An instance that no active model covers may be an inactive model of its class come back into
+// view (a chair the camera turned away from): the model whose surfels' bounding sphere holds the
+// instance's centroid (world frame) is re-activated, resting, in `slot` (no tracking: a resting
+// model keeps its world pose, and it wakes if it moved meanwhile). Returns whether one was.
+bool CoFusion::reactivate_at_instance(const MaskInstance& instance, const Eigen::Vector3d& centroid_world, int slot,
+                                      CoFusionFrame& out) {
+  Model* found = nullptr;
+  double nearest_m = 0;
+  for (auto& m : models_) {
+    if (m->state != ModelState::kInactive || m->slot != kInactiveSlot || !m->extent) continue;
+    const auto best = m->class_votes.best();
+    if (!best || best->first != instance.class_name) continue;
+    const double d = (m->surfels.T_world_model * m->extent->centre_model - centroid_world).norm();
+    if (d <= m->extent->radius_m && (!found || d < nearest_m)) found = m.get(), nearest_m = d;
+  }
+  if (!found) return false;
+  found->state = ModelState::kActive;
+  found->slot = slot;
+  found->resting = true;
+  found->tracked = false;
+  found->unseen_frames = 0;
+  found->last_frame = frame_;
+  found->last_motion = Eigen::Isometry3d::Identity();
+  found->pixels = int(instance.pixels.size());
+  found->class_votes.add(instance.class_name);
+  out.events.push_back("frame " + std::to_string(frame_) + ": re-activated model " + std::to_string(found->id) +
+                       " at a " + instance.class_name + " instance (resting)");
+  return true;
+}
+
+// Of `pixels`, the share whose background cost is above max_cost_m, among those the background's
+// prediction covers (cost not NaN); nullopt when it covers fewer than half of them (no evidence).
+std::optional<double> internal::background_unexplained_share(const std::vector<float>& background_costs,
+                                                             const std::vector<size_t>& pixels, float max_cost_m) {
+  size_t covered = 0, unexplained = 0;
+  for (size_t i : pixels) {
+    const float c = background_costs[i];
+    if (std::isnan(c)) continue;
+    ++covered;
+    unexplained += c > max_cost_m;
+  }
+  if (covered == 0 || 2 * covered < pixels.size()) return std::nullopt;
+  return double(unexplained) / double(covered);
+}
+
+// SemanticParams::resting_max_unexplained_fraction: a resting model whose pixels the background no
+// longer explains has moved. From now on it is tracked on its own, and the background drops its
+// surfels on its pixels (as for a new model: it joins `spawned_slots`).
+void CoFusion::wake_resting(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots,
+                            CoFusionFrame& out, std::vector<int>& spawned_slots) {
+  std::vector<std::vector<size_t>> pixels(kSlots);
+  bool any = false;
+  for (const auto& m : models_) any = any || (m->resting && m->slot >= 0);
+  if (!any) return;
+  for (size_t i = 0; i < slots.size(); ++i)
+    if (slots[i] < kSlots) pixels[slots[i]].push_back(i);
+  for (const auto& m : models_) {
+    if (!m->resting || m->slot < 0 || m->state != ModelState::kActive) continue;
+    const std::optional<double> unexplained =
+        background_unexplained_share(background_costs, pixels[size_t(m->slot)], params_.costs.max_explained_cost_m);
+    if (!unexplained || *unexplained <= params_.semantic.resting_max_unexplained_fraction) continue;
+    m->resting = false;
+    spawned_slots.push_back(m->slot);
+    out.events.push_back("frame " + std::to_string(frame_) + ": model " + std::to_string(m->id) +
+                         " started moving (the background explains " +
+                         std::to_string(int(std::lround(100 * (1 - *unexplained)))) + "% of its pixels)");
   }
 }
 
@@ -405,7 +482,7 @@ void CoFusion::drop_nonrigid(const std::vector<Model*>& order, const std::vector
   for (size_t k = 1; k < order.size(); ++k) {
     Model& m = *order[k];
     const double fraction = labelled[k] > 0 ? double(explained[k]) / double(labelled[k]) : 0.0;
-    if (m.state != ModelState::kActive || !m.tracked || frame_ - m.first_frame > p.rigidity_trial_frames) continue;
+    if (m.state != ModelState::kActive || !m.tracked || m.resting || frame_ - m.first_frame > p.rigidity_trial_frames) continue;
     if (!m.tracking.failed && fraction >= p.rigid_min_explained_fraction) continue;
     if (++m.rigidity_failures < p.rigidity_max_failures) continue;
     for (size_t i = 0; i < slots.size(); ++i)
@@ -477,6 +554,7 @@ bool CoFusion::try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroi
   m.surfels.T_world_model = T_world_camera_ * r.T_reference_live.inverse() * T_camera_model;
   m.state = ModelState::kActive;
   m.slot = slot;
+  m.resting = false;  // found by its motion
   m.tracking = r;
   m.tracked = true;
   m.last_motion = Eigen::Isometry3d::Identity();
@@ -515,6 +593,7 @@ void CoFusion::retire(Model& m, CoFusionFrame& out) {
   }));
   m.state = ModelState::kInactive;
   const bool keep = stable >= params_.lifecycle.min_stable_surfels;
+  if (keep) m.extent = surfel_extent(surfels);
   m.slot = keep ? kInactiveSlot : kRemovedSlot;
   out.events.push_back("frame " + std::to_string(frame_) + ": model " + std::to_string(m.id) + " left the view (" +
                        std::to_string(stable) + " stable surfels): " + (keep ? "inactive" : "deleted"));

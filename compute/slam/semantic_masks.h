@@ -59,6 +59,12 @@ struct SemanticParams {
   // they cover (the detector's come from the previous frame) and miss a mover's edge, and a
   // person's rim left in the frame pulls the camera (pixels, at the input's resolution).
   int exclude_margin_px = 8;
+  // semantic/both: a model spawned from an instance starts resting (CoFusion: kept where it is in
+  // the world, not tracked; the background keeps its surfels and tracks the camera with its
+  // pixels, so a room full of chairs and monitors does not starve the camera). It starts moving
+  // (tracked on its own, its surfels removed from the background) once more than this fraction of
+  // its pixels that the background's prediction covers is unexplained by the background (0-1).
+  double resting_max_unexplained_fraction = 0.5;
 };
 
 // Throws cofusion::Error unless `frame` has `pixels` ids.

@@ -289,7 +289,7 @@ L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, cons
   mp.window_cells = uint32_t(std::max(params.merge_window_cells, 0));
   mp.distance_rel = params.merge_distance_rel;
   mp.min_normal_dot = float(std::cos(params.merge_max_normal_angle_deg * M_PI / 180.0));
-  mp.use_labels = fp.label != FUSE_ALL_LABELS ? 1u : 0u, mp.label = fp.label;
+  mp.use_labels = fp.label_mask != FUSE_ALL_LABELS ? 1u : 0u, mp.label_mask = fp.label_mask;
   mp.max_source_confidence = params.merge_max_source_confidence;
   return mp;
 }
@@ -371,7 +371,7 @@ void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr&
 FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
                                   const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
                                   const gpu::BufferPtr& labels, unsigned label,
-                                  const std::optional<PixelRect>& rect, float colour_gain) const {
+                                  const std::optional<PixelRect>& rect, float colour_gain, uint32_t also_labels) const {
   const auto& l0 = live.levels.at(0);
   const Intrinsics& k = l0.intrinsics;
   const unsigned pixels = unsigned(k.width) * unsigned(k.height);
@@ -414,7 +414,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   fp.max_depth_diff_rel = params.max_depth_diff_rel;
   fp.min_normal_dot = float(std::cos(params.max_normal_angle_deg * M_PI / 180.0));
   fp.max_radius_growth = params.max_radius_growth;
-  fp.label = labels ? label : FUSE_ALL_LABELS;
+  fp.label_mask = labels ? (label < 32 ? 1u << label : 0u) | also_labels : FUSE_ALL_LABELS;
   fp.rect_x0 = uint32_t(area.x0), fp.rect_y0 = uint32_t(area.y0), fp.rect_x1 = uint32_t(area.x1),
   fp.rect_y1 = uint32_t(area.y1);
   fp.colour_gain = colour_gain;

@@ -131,15 +131,17 @@ class SurfelPipelines {
   // duplicate surfels (FusionParams::merge_*) and removes unstable and free-space surfels. Keeps the model within its capacity limit
   // (SurfelModel::make_room: least confident surfels culled before fusion when there is no room,
   // and after cleanup when the count is over the limit). With `labels` (uint per pixel), only pixels whose label is
-  // `label` are fused. With `rect` (level-0 pixels), only pixels in it are fused: with labels it
-  // must hold every pixel labelled `label`, and then the result is the same, at the cost of the
+  // `label` or one of `also_labels` (bit l for label l < 32) are fused. With `rect` (level-0
+  // pixels), only pixels in it are fused: with labels it must hold every pixel so labelled, and
+  // then the result is the same, at the cost of the
   // rectangle instead of the image. The live colour is multiplied by `colour_gain` (the frame's
   // exposure against the model's, from tracking). Synchronous: returns when the model's new count
   // is known.
   FusionStats fuse(gpu::Stream& stream, SurfelModel& model, const kernels::FramePyramid& live,
                    const Eigen::Isometry3d& T_camera_model, int frame, const FusionParams& params,
                    const gpu::BufferPtr& labels = nullptr, unsigned label = 0,
-                   const std::optional<PixelRect>& rect = std::nullopt, float colour_gain = 1.0f) const;
+                   const std::optional<PixelRect>& rect = std::nullopt, float colour_gain = 1.0f,
+                   uint32_t also_labels = 0) const;
 
   // Removes every surfel of `model` (seen at T_camera_model) that projects onto a live pixel whose
   // label (`labels`: uint per level-0 pixel of `live`) is `label` and that lies in front of or at

@@ -148,7 +148,7 @@ Association associate(const std::vector<Surfel>& surfels, const std::vector<uint
     for (uint32_t x = p.rect_x0; x < std::min(p.rect_x1, p.width); ++x) {
       const uint32_t i = y * p.width + x;
       const glm::vec4 v = live.vertex.pixels[i], n = live.normal.pixels[i];
-      if (v.w == 0.0f || n.w == 0.0f || (p.label != FUSE_ALL_LABELS && live.labels[i] != p.label)) continue;
+      if (v.w == 0.0f || n.w == 0.0f || (p.label_mask != FUSE_ALL_LABELS && !LABEL_IN_MASK(live.labels[i], p.label_mask))) continue;
       const vec3 ray = glm::normalize(vec3(v));
       uint32_t best = FUSE_NO_SURFEL;
       float best_confidence = -1.0f, best_ray_dist = 1e30f;
@@ -225,7 +225,7 @@ bool cell_fused(int x, int y, const std::vector<uint32_t>& labels, const gpu_lay
   const uint32_t px = uint32_t(x) / p.grid_scale, py = uint32_t(y) / p.grid_scale;
   if (px < p.rect_x0 || px >= std::min(p.rect_x1, p.width) || py < p.rect_y0 || py >= std::min(p.rect_y1, p.height))
     return false;
-  return !p.use_labels || labels.at(size_t(py) * p.width + px) == p.label;
+  return !p.use_labels || LABEL_IN_MASK(labels.at(size_t(py) * p.width + px), p.label_mask);
 }
 
 uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint64_t>& index_map,

@@ -170,7 +170,7 @@ struct SubsampleParams {
 #define FUSE_BINDING_ASSOC 5       // uint[] per live pixel: surfel index, 0xFFFFFFFF none, 0xFFFFFFFE skip
 #define FUSE_BINDING_CLAIM 6       // uint[] per surfel: lowest live pixel index associated
 #define FUSE_BINDING_COUNTER 7     // uint[4]: [0] surfel count (new surfels added by compaction_scan)
-#define FUSE_BINDING_LABELS 8      // uint[] per live pixel: model label (read unless label == FUSE_ALL_LABELS)
+#define FUSE_BINDING_LABELS 8      // uint[] per live pixel: model label (read unless label_mask == FUSE_ALL_LABELS)
 // fuse_update only: the surfel buffer again, written here while FUSE_BINDING_SURFELS reads it
 // through its texel view. Safe: a surfel is read and written only by the pixel that claimed it,
 // and appended surfels lie beyond every surfel that is read.
@@ -180,7 +180,9 @@ struct SubsampleParams {
 #define FUSE_BINDING_BLOCKS 10
 #define FUSE_NO_SURFEL 0xFFFFFFFFu
 #define FUSE_SKIP_PIXEL 0xFFFFFFFEu
-#define FUSE_ALL_LABELS 0xFFFFFFFFu  // FuseParams::label: no label image, every pixel is fused
+#define FUSE_ALL_LABELS 0xFFFFFFFFu  // FuseParams::label_mask: no label image, every pixel is fused
+// Whether a pixel's label is one of a label mask's (bit l for label l; labels from 32 up are in none).
+#define LABEL_IN_MASK(label, mask) ((label) < 32u && (((mask) >> (label)) & 1u) != 0u)
 struct FuseParams {
   float T_camera_model[12];   // current pose of the model in the camera (inverted in the shader)
   float fx, fy, cx, cy;
@@ -192,7 +194,9 @@ struct FuseParams {
   float max_depth_diff_rel;   // association: |z_surfel - z_live| <= max_depth_diff_rel * z_live + 0.005
   float min_normal_dot;       // association: cos(max normal angle)
   float max_radius_growth;    // merge position/normal only if live radius <= this * surfel radius
-  uint label;                 // only pixels labelled this are fused; FUSE_ALL_LABELS: every pixel
+  // Only pixels whose label is in this mask (LABEL_IN_MASK) are fused; FUSE_ALL_LABELS: every pixel
+  // (no label image).
+  uint label_mask;
   // Only live pixels in [rect_x0, rect_x1) x [rect_y0, rect_y1) are associated and fused (a
   // model's labelled pixels); association entries and index-map rows outside are not touched.
   uint rect_x0, rect_y0, rect_x1, rect_y1;
@@ -234,7 +238,7 @@ struct CleanupParams {
 // ---- surfel_merge_select.comp, surfel_merge_claim.comp: duplicate surfels --------------------
 // After fusion's update (before cleanup), each surfel i looks at the cells of fusion's
 // supersampled index map within window_cells of its projection, in the part of the image this
-// fusion covered (cells of pixels in the rectangle and, with use_labels, labelled `label`). A
+// fusion covered (cells of pixels in the rectangle and, with use_labels, of its labels). A
 // surfel j found there that is more confident (equal confidence: lower index), lies within
 // distance_rel * max(radius_i, radius_j) of i and has a normal within acos(min_normal_dot) of
 // i's is a merge target; i takes the nearest (ties: lowest index) as target[i] (MERGE_NONE: none).
@@ -255,13 +259,14 @@ struct MergeParams {
   uint grid_scale;
   uint surfel_count;          // upper bound of counter[0] (the dispatch size)
   // Live pixels whose cells are searched: [rect_x0, rect_x1) x [rect_y0, rect_y1) (the fusion's
-  // rectangle: the index map's rows outside it are stale) and, with use_labels, labelled `label`.
+  // rectangle: the index map's rows outside it are stale) and, with use_labels, whose label is
+  // in label_mask (LABEL_IN_MASK).
   uint rect_x0, rect_y0, rect_x1, rect_y1;
   uint window_cells;          // half-size of the square of cells searched around the projection
   float distance_rel;         // merge when |p_i - p_j| < distance_rel * max(radius_i, radius_j)
   float min_normal_dot;       // ... and dot(n_i, n_j) >= min_normal_dot
   uint use_labels;
-  uint label;
+  uint label_mask;
   float max_source_confidence;  // only surfels below this confidence look for a target
 };
 

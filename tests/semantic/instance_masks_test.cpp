@@ -163,6 +163,24 @@ TEST(InstanceMasks, ThePersonSegmentersPixelsGrowOverDepthToTheLegs) {
   EXPECT_EQ(plain.instances[0].pixels, 36 * 14) << "without growing: the segmenter's pixels";
 }
 
+
+TEST(InstanceMasks, AnotherClassOnThePersonSegmentersPixelsIsAPerson) {
+  // The detector calls the upright body an elephant; the segmenter marks 70% of it (or 30%).
+  const Intrinsics k = small_camera();
+  const Scene s = box_on_floor(k);
+  const cv::Rect box(54, 34, 52, 50);
+  for (const int marked_rows : {25, 11}) {
+    cv::Mat person(s.depth_m.size(), CV_32FC1, cv::Scalar(0.f));
+    person(cv::Rect(s.object.x, s.object.y, s.object.width, marked_rows)).setTo(0.9f);
+    const auto m = instance_masks({detection(20, "elephant", 0.5f, box)}, s.depth_m, k, {}, person);
+    ASSERT_EQ(m.instances.size(), 1u);
+    const bool person_expected = marked_rows == 25;
+    EXPECT_EQ(m.instances[0].class_name, person_expected ? "person" : "elephant") << marked_rows << " rows marked";
+    EXPECT_EQ(m.instances[0].class_id, person_expected ? 0 : 20);
+    EXPECT_GE(share_with_id(m.ids, box, [&](int x, int y) { return s.object.contains({x, y}); }, 1), 0.9)
+        << "the mask is the depth-grown one either way";
+  }
+}
 TEST(InstanceMasks, RejectsBadInput) {
   const Intrinsics k = small_camera();
   EXPECT_NE(test::error_of([&] { (void)instance_masks({}, cv::Mat(), k, {}); }), "(no error)");

@@ -286,12 +286,14 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
     live.rgb.resize(size_t(s.width) * s.height * 3);
     for (auto& b : live.rgb) b = uint8_t(byte(rng));
     live.labels.resize(size_t(s.width) * s.height);
-    for (size_t i = 0; i < live.labels.size(); ++i) live.labels[i] = (i / 7) % 3 == 0 ? 2u : 1u;
+    // Labels 1 and 3 are fused (a model and a resting one it fuses for); 2 and 255 (no slot) not.
+    for (size_t i = 0; i < live.labels.size(); ++i)
+      live.labels[i] = i % 11 == 0 ? 255u : (i / 7) % 4 == 0 ? 2u : (i / 7) % 4 == 1 ? 3u : 1u;
     const auto T_camera_model = test_pose(0.002, {0.001, 0.0, -0.001});
     auto surfels = make_surfels(s, k, 4, T_camera_model.inverse());
     const uint32_t capacity = uint32_t(surfels.size() + live.labels.size());
 
-    // Every pixel; the pixels labelled 1; those of them in a rectangle (a model's region).
+    // Every pixel; the pixels labelled 1 or 3; those of them in a rectangle (a model's region).
     for (int variant = 0; variant < 3; ++variant) {
       const uint32_t use_labels = variant > 0 ? 1u : 0u;
       const PixelRect rect = variant == 2 ? PixelRect{s.width / 3, s.height / 5, s.width / 3 + (s.width + 1) / 2, s.height + 4}
@@ -305,7 +307,7 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       fp.width = uint32_t(s.width), fp.height = uint32_t(s.height);
       fp.grid_scale = 4, fp.surfel_count = uint32_t(surfels.size()), fp.capacity = capacity, fp.frame = 101;
       fp.max_depth_diff_rel = 0.03f, fp.min_normal_dot = std::cos(20.0f * float(M_PI) / 180.0f);
-      fp.max_radius_growth = 1.5f, fp.label = use_labels ? 1u : FUSE_ALL_LABELS;
+      fp.max_radius_growth = 1.5f, fp.label_mask = use_labels ? (1u << 1) | (1u << 3) : FUSE_ALL_LABELS;
       fp.new_surfel_clearance_cells = variant == 1 ? 0u : 1u;
       fp.rect_x0 = uint32_t(rect.x0), fp.rect_y0 = uint32_t(rect.y0), fp.rect_x1 = uint32_t(rect.x1),
       fp.rect_y1 = uint32_t(rect.y1);
@@ -340,6 +342,18 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       EXPECT_LE(differ, gpu_assoc.size() / 500) << what;
       if (s.width >= 160) {
         EXPECT_GT(associated, size_t(rect.clamped(s.width, s.height).area()) / 4) << "test data associates too little";
+      }
+      if (use_labels) {
+        size_t outside_mask = 0, second_label = 0;
+        for (size_t i = 0; i < gpu_assoc.size(); ++i) {
+          const bool in_mask = live.labels[i] == 1u || live.labels[i] == 3u;
+          outside_mask += !in_mask && gpu_assoc[i] != FUSE_SKIP_PIXEL;
+          second_label += live.labels[i] == 3u && gpu_assoc[i] != FUSE_SKIP_PIXEL;
+        }
+        EXPECT_EQ(outside_mask, 0u) << "pixels labelled 2 or 255 are not fused, " << what;
+        if (s.width >= 160) {
+          EXPECT_GT(second_label, 0u) << "pixels labelled 3 are, " << what;
+        }
       }
 
       // Update from the CPU association on both sides, so the comparison isolates the update.
@@ -437,7 +451,7 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
     sp.min_confidence = 0.0f, sp.recent_window_frames = 0;  // as fusion splats
     const auto grid = ref::splat(surfels, sp);
     std::vector<uint32_t> labels(size_t(s.width) * s.height);
-    for (size_t i = 0; i < labels.size(); ++i) labels[i] = (i / 5) % 4 == 0 ? 2u : 1u;
+    for (size_t i = 0; i < labels.size(); ++i) labels[i] = i % 13 == 0 ? 255u : (i / 5) % 4 == 0 ? 2u : (i / 5) % 4 == 1 ? 3u : 1u;
     for (int variant = 0; variant < 2; ++variant) {
       const std::string what = (case_index == 0 ? "empty model " : "") + name(s) + (variant ? " labelled, in a rectangle" : "");
       L::MergeParams mp{};
@@ -450,7 +464,7 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       mp.rect_y1 = uint32_t(rect.y1);
       mp.window_cells = 2, mp.distance_rel = 0.5f, mp.min_normal_dot = std::cos(35.0f * float(M_PI) / 180.0f);
       mp.max_source_confidence = 8.0f;
-      mp.use_labels = uint32_t(variant), mp.label = 1;
+      mp.use_labels = uint32_t(variant), mp.label_mask = (1u << 1) | (1u << 3);
       const size_t slots = std::max<size_t>(n, 4);
       slam::SurfelPipelines::MergeBuffers b{upload(surfels.empty() ? std::vector<Surfel>(1) : surfels, "surfels"),
                                             upload(grid, "grid"),
