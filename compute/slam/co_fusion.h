@@ -405,6 +405,9 @@ class CoFusion {
   std::vector<char> mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const;
   void apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken, const float* depth_m,
                        const std::vector<float>& background_costs, CoFusionFrame& out, std::vector<int>& spawned_slots);
+  void spawn_instances(const std::vector<const MaskInstance*>& uncovered, std::vector<uint8_t>& slots,
+                       std::vector<int>& slot_pixels, uint32_t& taken, const float* depth_m,
+                       const std::vector<float>& background_costs, CoFusionFrame& out, std::vector<int>& spawned_slots);
   bool reactivate_at_instance(const MaskInstance& instance, const Eigen::Vector3d& centroid_world, int slot,
                               CoFusionFrame& out);
   void wake_resting(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots, CoFusionFrame& out,

@@ -306,11 +306,21 @@ void CoFusion::update_presence(const std::vector<int>& slot_pixels, CoFusionFram
   }
 }
 
+namespace {
+// Gives `pixels` to `slot`, keeping the per-slot pixel counts.
+void assign_pixels(const std::vector<size_t>& pixels, int slot, std::vector<uint8_t>& slots, std::vector<int>& slot_pixels) {
+  for (size_t i : pixels) {
+    if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
+    slots[i] = static_cast<uint8_t>(slot);
+    ++slot_pixels[size_t(slot)];
+  }
+}
+}  // namespace
+
 // Instance masks (SemanticParams): an instance of a modelled class votes for the object model whose
 // footprint (its labelled pixels in the previous frame or in this segmentation) it overlaps with
 // IoU >= join_min_iou; in semantic/both modes its pixels then join that model. In those modes an
-// instance no model covers for confirm_frames consecutive frames spawns a model (no probation: it
-// need not move), its surfels removed from the older models as a motion spawn's are.
+// instance no model covers for confirm_frames consecutive frames spawns a model (spawn_instances).
 void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken,
                                const float* depth_m, const std::vector<float>& background_costs, CoFusionFrame& out,
                                std::vector<int>& spawned_slots) {
@@ -342,40 +352,34 @@ void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& sl
     if (spawning) continue;
     if (best && best_iou >= sp.join_min_iou) {
       best->class_votes.add(inst.class_name);
-      if (modelling)
-        for (size_t i : inst.pixels) {
-          if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
-          slots[i] = static_cast<uint8_t>(best->slot);
-          ++slot_pixels[size_t(best->slot)];
-        }
+      if (modelling) assign_pixels(inst.pixels, best->slot, slots, slot_pixels);
     } else {
       uncovered.push_back(&inst);
     }
   }
-  if (!modelling) return;
-  // Centroids of their points (camera frame): a new model's origin, and with the previous frame's the
-  // first tracking's guess (as for a motion spawn: objects carried in fast move out of their mask).
-  const int width = intrinsics_.width;
-  std::vector<std::optional<Eigen::Vector3d>> centroids;
-  for (const MaskInstance* inst : uncovered) {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (size_t i : inst->pixels) {
-      const double d = depth_m[i], x = double(i % size_t(width)), y = double(i / size_t(width));
-      sum += Eigen::Vector3d((x - intrinsics_.cx) / intrinsics_.fx * d, (y - intrinsics_.cy) / intrinsics_.fy * d, d);
-    }
-    centroids.push_back(sum / double(inst->pixels.size()));  // instances have pixels with depth
-  }
+  if (modelling) spawn_instances(uncovered, slots, slot_pixels, taken, depth_m, background_costs, out, spawned_slots);
+}
+
+// The instances no model covers (apply_instances): each one seen in confirm_frames consecutive
+// frames re-activates an inactive model of its class there (reactivate_at_instance) or spawns a
+// model with no probation (it need not move), resting where the background explains it
+// (SemanticParams::resting_max_unexplained_fraction); else its surfels leave the older models as a
+// motion spawn's do, and its first tracking starts from its centroid's step over the last frame.
+void CoFusion::spawn_instances(const std::vector<const MaskInstance*>& uncovered, std::vector<uint8_t>& slots,
+                               std::vector<int>& slot_pixels, uint32_t& taken, const float* depth_m,
+                               const std::vector<float>& background_costs, CoFusionFrame& out,
+                               std::vector<int>& spawned_slots) {
+  const SemanticParams& sp = params_.semantic;
+  const size_t n = slots.size();
+  std::vector<std::optional<Eigen::Vector3d>> centroids;  // camera frame; instances have pixels with depth
+  for (const MaskInstance* inst : uncovered) centroids.push_back(region_centroid(inst->pixels, depth_m));
   const std::vector<InstanceCandidates::Seen> seen = instance_candidates_.update(uncovered, centroids, n);
   for (size_t k = 0; k < uncovered.size(); ++k) {
     if (seen[k].frames < sp.confirm_frames || int(live_models().size()) >= params_.lifecycle.max_active_models) continue;
     const int slot = free_slot(taken);
     if (slot < 0) break;
     taken |= 1u << slot;
-    for (size_t i : uncovered[k]->pixels) {
-      if (slots[i] != kNoSlot) --slot_pixels[slots[i]];
-      slots[i] = static_cast<uint8_t>(slot);
-      ++slot_pixels[size_t(slot)];
-    }
+    assign_pixels(uncovered[k]->pixels, slot, slots, slot_pixels);
     if (reactivate_at_instance(*uncovered[k], T_world_camera_ * *centroids[k], slot, out)) continue;
     Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
     T_camera_model.translation() = *centroids[k];

@@ -501,10 +501,11 @@ TEST(BenchCommand, SemanticFiguresPerModeAndMaskSource) {
   const Result r = run_cofusion("bench --no-kernels --no-pipeline --no-models --semantic-input synthetic:walking_people --frames 6");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("segmentation modes on synthetic:walking_people (6 frames")) << r.output;
-  for (const char* row : {"motion    none ", "semantic  masks ", "both      masks "})
+  for (const char* row : {"motion    none ", "motion    masks ", "semantic  masks ", "both      masks "})
     EXPECT_THAT(r.output, HasSubstr(row)) << r.output;
   const char* models = std::getenv("COFUSION_MODELS");
   if (models && fs::is_regular_file(fs::path(models) / "centernet.pb")) {
+    EXPECT_THAT(r.output, HasSubstr("motion    detector ")) << r.output;
     EXPECT_THAT(r.output, HasSubstr("both      detector ")) << r.output;
     EXPECT_THAT(r.output, HasSubstr("both      detector 1/4 ")) << r.output;
     EXPECT_THAT(r.output, HasSubstr("ran on 2 of 6 frames")) << r.output;  // frames 0 and 4
