@@ -27,6 +27,19 @@ double depth_fit(const float* depth_live_m, const float* depth_reference_m, cons
   return with_depth > 0 ? double(fitting) / double(with_depth) : 0.0;
 }
 
+CameraDecision decide_camera_motion(const CameraFits& fits, bool tracking_failed, bool refused_poses_agree,
+                                    double last_fit, const CameraCheckParams& params) {
+  CameraDecision d;
+  if (!tracking_failed && (!fits.refused(params.min_fit_ratio) || refused_poses_agree)) return d;
+  if (tracking_failed && fits.start < params.min_fit_ratio * last_fit) {
+    d.verdict = CameraVerdict::kLost;
+    return d;
+  }
+  d.verdict = CameraVerdict::kReplaced;
+  d.motion = fits.from_guess ? scaled_motion(fits.guess, params.replaced_motion_scale) : Eigen::Isometry3d::Identity();
+  return d;
+}
+
 Eigen::Isometry3d scaled_motion(const Eigen::Isometry3d& T, double scale) {
   const Eigen::AngleAxisd r(T.rotation());
   Eigen::Isometry3d out = Eigen::Isometry3d::Identity();

@@ -53,6 +53,34 @@ struct CameraCheckParams {
 double depth_fit(const float* depth_live_m, const float* depth_reference_m, const Intrinsics& intrinsics,
                  const Eigen::Isometry3d& T_reference_live, const CameraCheckParams& params);
 
+// How well the camera's tracked motion, the constant-velocity guess and no motion explain the
+// previous frame's depth (depth_fit).
+struct CameraFits {
+  double tracked = 0, start = 0;  // fit of the tracked motion and of the better start
+  bool from_guess = true;         // the better start is the constant-velocity guess (else no motion)
+  Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();  // the constant-velocity guess
+  bool refused(double min_fit_ratio) const { return tracked < min_fit_ratio * start; }
+};
+
+// What becomes of the camera's tracked motion in a frame.
+enum class CameraVerdict {
+  kStands,    // the tracked motion is the camera's
+  kReplaced,  // `motion` is taken instead and nothing is fused into the background
+  kLost,      // the tracking failed and nothing can stand in: the camera is lost
+};
+struct CameraDecision {
+  CameraVerdict verdict = CameraVerdict::kStands;
+  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();  // the replacement (kReplaced)
+};
+// The rules of CameraCheckParams: a motion that tracked and is not refused stands, and so does a
+// refused one whose poses agree (`refused_poses_agree`, the caller's count of agreeing frames
+// reached). A refused motion is replaced by the better start: the constant-velocity guess slowed
+// by replaced_motion_scale, or no motion. A failed tracking is replaced the same way when the
+// start fits at least min_fit_ratio times `last_fit` (the last frame's taken motion's fit); else
+// the camera is lost.
+CameraDecision decide_camera_motion(const CameraFits& fits, bool tracking_failed, bool refused_poses_agree,
+                                    double last_fit, const CameraCheckParams& params);
+
 // The motion `scale` times as far: rotation angle (about the same axis) and translation scaled
 // (CameraCheckParams::replaced_motion_scale). 0 gives no motion, 1 the motion itself.
 Eigen::Isometry3d scaled_motion(const Eigen::Isometry3d& T, double scale);

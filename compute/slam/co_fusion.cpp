@@ -561,7 +561,7 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active, const floa
 
 // How well the background's tracked motion, the constant-velocity guess and no motion explain the
 // previous frame's depth (CameraCheckParams; needs a previous frame).
-CoFusion::CameraFits CoFusion::camera_fits(const Model& bg, const float* depth_m) const {
+CameraFits CoFusion::camera_fits(const Model& bg, const float* depth_m) const {
   const CameraCheckParams& p = params_.camera_check;
   const auto fit = [&](const Eigen::Isometry3d& T) { return depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, T, p); };
   CameraFits f;
@@ -612,18 +612,21 @@ std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m, const
   if (!fits) return {};
   const CameraFits& f = *fits;
   const bool failed = bg.tracking.failed;
-  if (!failed && (!f.refused(p.min_fit_ratio) || tracked_poses_agree(bg, depth_m, f))) {
+  // Agreement is counted over refused frames only (tracked_poses_agree keeps the count).
+  const bool agree = !failed && f.refused(p.min_fit_ratio) && tracked_poses_agree(bg, depth_m, f);
+  const CameraDecision decision = decide_camera_motion(f, failed, agree, last_camera_fit_, p);
+  if (decision.verdict == CameraVerdict::kStands) {
     last_camera_fit_ = f.tracked;
     refused_T_world_tracked_.reset();
     agreeing_refusals_ = 0;
     return {};
   }
   if (failed) refused_T_world_tracked_.reset(), agreeing_refusals_ = 0;
-  if (failed && f.start < p.min_fit_ratio * last_camera_fit_) return {};
+  if (decision.verdict == CameraVerdict::kLost) return {};
   const auto percent = [](double share) { return std::to_string(int(std::lround(100 * share))) + "%"; };
   const std::string why = failed ? "camera tracking failed (" + bg.tracking.failure_reason + ")"
                                  : "camera motion refused: it fits " + percent(f.tracked) + " of the previous frame's depth";
-  bg.motion = f.from_guess ? scaled_motion(f.guess, p.replaced_motion_scale) : Eigen::Isometry3d::Identity();
+  bg.motion = decision.motion;
   if (failed) {
     bg.tracking = TrackingResult{};
     bg.tracking.T_reference_live = bg.motion;

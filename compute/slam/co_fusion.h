@@ -352,12 +352,6 @@ class CoFusion {
   template <typename Work>
   static void for_each_model(const std::vector<Model*>& models, const Work& work);
   CameraState track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal);
-  struct CameraFits {
-    double tracked = 0, start = 0;  // depth_fit of the tracked motion and of the better start
-    bool from_guess = true;         // the better start is the constant-velocity guess (else none)
-    Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();
-    bool refused(double min_fit_ratio) const { return tracked < min_fit_ratio * start; }
-  };
   CameraFits camera_fits(const Model& bg, const float* depth_m) const;
   void retry_camera_tracking(Model& bg, const float* depth_m, std::optional<CameraFits>& fits);
   bool tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f);

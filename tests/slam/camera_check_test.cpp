@@ -101,5 +101,40 @@ TEST(ScaledMotion, ScalesAngleAndTranslationAboutTheSameAxis) {
   EXPECT_TRUE(scaled_motion(Eigen::Isometry3d::Identity(), 0.5).isApprox(Eigen::Isometry3d::Identity(), 1e-12));
 }
 
+// The camera check's rules (CameraCheckParams: min_fit_ratio 0.8, replaced_motion_scale 0.5).
+TEST(DecideCameraMotion, StandsReplacesOrLoses) {
+  const CameraCheckParams p;
+  CameraFits f;
+  f.guess.translation() = Eigen::Vector3d(0.02, 0.0, 0.0);
+  f.from_guess = true;
+  f.start = 0.9;
+  const auto verdict = [&](bool failed, bool agree, double last_fit) {
+    return decide_camera_motion(f, failed, agree, last_fit, p).verdict;
+  };
+  // Tracked, fitting at least 0.8 of the better start: it stands.
+  f.tracked = 0.75;  // 0.83 of the start
+  EXPECT_EQ(verdict(false, false, 0.9), CameraVerdict::kStands);
+  // Refused (0.5 of the start): the guess at half speed replaces it...
+  f.tracked = 0.45;
+  CameraDecision d = decide_camera_motion(f, false, false, 0.9, p);
+  EXPECT_EQ(d.verdict, CameraVerdict::kReplaced);
+  EXPECT_TRUE(d.motion.translation().isApprox(Eigen::Vector3d(0.01, 0.0, 0.0), 1e-12));
+  // ... or no motion where that fits better ...
+  f.from_guess = false;
+  d = decide_camera_motion(f, false, false, 0.9, p);
+  EXPECT_EQ(d.verdict, CameraVerdict::kReplaced);
+  EXPECT_TRUE(d.motion.isApprox(Eigen::Isometry3d::Identity(), 1e-12));
+  // ... unless the refused poses have agreed for agreeing_frames: then the tracked motion stands.
+  EXPECT_EQ(verdict(false, true, 0.9), CameraVerdict::kStands);
+  // A failed tracking: replaced where the start fits at least 0.8 of the last frame's fit (0.9 of
+  // 0.95 here), else lost (a covered lens: nothing fits); agreement does not save a failed one.
+  EXPECT_EQ(verdict(true, false, 0.95), CameraVerdict::kReplaced);
+  EXPECT_EQ(verdict(true, true, 0.95), CameraVerdict::kReplaced);
+  f.start = 0.1;
+  EXPECT_EQ(verdict(true, false, 0.95), CameraVerdict::kLost);
+  // The first frames have no last fit (0): a failed tracking is replaced.
+  EXPECT_EQ(verdict(true, false, 0.0), CameraVerdict::kReplaced);
+}
+
 }  // namespace
 }  // namespace cofusion::slam
