@@ -437,6 +437,9 @@ class CoFusion {
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels
+  // This frame's share of pixels (not movers') that the background's prediction covers but does not
+  // explain: the bar a resting model's own share is measured against (SemanticParams).
+  double scene_unexplained_share_ = 0;
   // The previous frame's large outlier regions that did not spawn: per pixel 0 = none, k = the
   // k-th, whose live points' centroid (camera frame; none without depth) is entry k - 1.
   std::vector<uint8_t> spawn_candidate_;

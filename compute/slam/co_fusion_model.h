@@ -65,6 +65,11 @@ inline SurfelExtent surfel_extent(const std::vector<Surfel>& surfels) {
 std::optional<double> background_unexplained_share(const std::vector<float>& background_costs,
                                                    const std::vector<size_t>& pixels, float max_cost_m);
 
+// Of the pixels with a model or an outlier label (not kNoSlot, not kMoverSlot), the share whose
+// background cost is above max_cost_m among those the background's prediction covers (0: none).
+double scene_unexplained_share(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots,
+                               float max_cost_m);
+
 }  // namespace cofusion::slam::internal
 
 namespace cofusion::slam {

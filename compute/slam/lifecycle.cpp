@@ -54,6 +54,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       ++slot_pixels[size_t(sp.slot)];
     }
   }
+  scene_unexplained_share_ = scene_unexplained_share(costs.front(), slots, params_.costs.max_explained_cost_m);
   if (semantic_) apply_instances(slots, slot_pixels, taken, depth_m, costs.front(), out, spawned_slots);
   wake_resting(costs.front(), slots, out, spawned_slots);
   upload_labels(slots);
@@ -387,7 +388,7 @@ void CoFusion::spawn_instances(const std::vector<const MaskInstance*>& uncovered
     m.on_probation = false;
     const std::optional<double> unexplained =
         background_unexplained_share(background_costs, uncovered[k]->pixels, params_.costs.max_explained_cost_m);
-    m.resting = !unexplained || *unexplained <= sp.resting_max_unexplained_fraction;
+    m.resting = !unexplained || *unexplained - scene_unexplained_share_ <= sp.resting_max_unexplained_fraction;
     if (!m.resting && seen[k].previous_centroid) {
       const Eigen::Vector3d step = *centroids[k] - *seen[k].previous_centroid;
       if (step.norm() <= params_.lifecycle.spawn_max_velocity_guess_m) {
@@ -452,8 +453,23 @@ std::optional<double> internal::background_unexplained_share(const std::vector<f
   return double(unexplained) / double(covered);
 }
 
+// Of the pixels with a model or an outlier label (not movers'), the share whose background cost is
+// above max_cost_m among those the background's prediction covers; 0 when it covers none.
+double internal::scene_unexplained_share(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots,
+                                         float max_cost_m) {
+  size_t covered = 0, unexplained = 0;
+  for (size_t i = 0; i < slots.size(); ++i) {
+    const float c = background_costs[i];
+    if (slots[i] == kNoSlot || slots[i] == kMoverSlot || std::isnan(c)) continue;
+    ++covered;
+    unexplained += c > max_cost_m;
+  }
+  return covered == 0 ? 0.0 : double(unexplained) / double(covered);
+}
+
 // SemanticParams::resting_max_unexplained_fraction: a resting model whose pixels the background no
-// longer explains has moved. From now on it is tracked on its own, and the background drops its
+// longer explains, well beyond how much of the rest of the view it leaves unexplained (a fast turn
+// blurs and misaligns the whole prediction), has moved. From now on it is tracked on its own, and the background drops its
 // surfels on its pixels (as for a new model: it joins `spawned_slots`).
 void CoFusion::wake_resting(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots,
                             CoFusionFrame& out, std::vector<int>& spawned_slots) {
@@ -467,7 +483,7 @@ void CoFusion::wake_resting(const std::vector<float>& background_costs, const st
     if (!m->resting || m->slot < 0 || m->state != ModelState::kActive) continue;
     const std::optional<double> unexplained =
         background_unexplained_share(background_costs, pixels[size_t(m->slot)], params_.costs.max_explained_cost_m);
-    if (!unexplained || *unexplained <= params_.semantic.resting_max_unexplained_fraction) continue;
+    if (!unexplained || *unexplained - scene_unexplained_share_ <= params_.semantic.resting_max_unexplained_fraction) continue;
     m->resting = false;
     spawned_slots.push_back(m->slot);
     out.events.push_back("frame " + std::to_string(frame_) + ": model " + std::to_string(m->id) +

@@ -62,8 +62,11 @@ struct SemanticParams {
   // semantic/both: a model spawned from an instance starts resting (CoFusion: kept where it is in
   // the world, not tracked; the background keeps its surfels and tracks the camera with its
   // pixels, so a room full of chairs and monitors does not starve the camera). It starts moving
-  // (tracked on its own, its surfels removed from the background) once more than this fraction of
-  // its pixels that the background's prediction covers is unexplained by the background (0-1).
+  // (tracked on its own, its surfels removed from the background) once the share of its pixels
+  // that the background's prediction covers but does not explain exceeds the same share over the
+  // rest of the view by more than this (0-1): an absolute bar woke models in every fast turn (TUM
+  // fr1/rpy), where the whole prediction is off. An instance that fails the test at its spawn
+  // spawns awake.
   double resting_max_unexplained_fraction = 0.5;
 };
 
