@@ -422,9 +422,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   std::vector<Model*> active = live_models();
   for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {};
   set_work_rects(active);
-  resting_slots_ = 0;
-  for (const Model* m : active)
-    if (m->resting) resting_slots_ |= 1u << m->slot;
+  resting_slots_ = resting_slots(active);
   live_.upload(main_stream_, depth_m, rgb);
   stage("upload");
 
@@ -507,6 +505,13 @@ std::vector<uint8_t> CoFusion::begin_semantic_frame(const SemanticFrame* semanti
   if (!excluded.empty()) grow_mask(excluded, intrinsics_.width, params_.semantic.exclude_margin_px);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
   return excluded;
+}
+
+uint32_t CoFusion::resting_slots(const std::vector<Model*>& models) {
+  uint32_t slots = 0;
+  for (const Model* m : models)
+    if (m->resting) slots |= 1u << m->slot;
+  return slots;
 }
 
 // Where each model works this frame (see Model::track_rect).
@@ -699,10 +704,9 @@ void CoFusion::label_all_background(const float* depth_m, const std::vector<uint
 void CoFusion::fuse_models(const std::vector<int>& spawned_slots) {
   const std::vector<Model*> fusing = live_models();
   const std::vector<PixelRect> fuse_rects = slot_rects(slots_, intrinsics_.width, intrinsics_.height);
-  // The background fuses the pixels of resting models too: it keeps their surfels to track with.
-  uint32_t resting = 0;
-  for (const Model* m : fusing)
-    if (m->resting) resting |= 1u << m->slot;
+  // The background fuses the pixels of resting models too (as they are after this frame's
+  // lifecycle): it keeps their surfels to track with.
+  const uint32_t resting = resting_slots(fusing);
   for_each_model(fusing, [&](Model& m) {
     const bool is_new = std::find(spawned_slots.begin(), spawned_slots.end(), m.slot) != spawned_slots.end();
     fuse_model(m, is_new ? std::vector<int>{} : spawned_slots, fuse_rects[size_t(m.slot)], m.id == 0 ? resting : 0u);

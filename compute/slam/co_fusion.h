@@ -396,6 +396,7 @@ class CoFusion {
   bool relocalise(Model& bg, const FrameEncoding& encoding, const FrameFeatures& features);
   void hold_still(const std::vector<Model*>& active, const std::string& why);
   std::vector<Model*> live_models() const;  // the active models, background first
+  static uint32_t resting_slots(const std::vector<Model*>& models);  // bit s: a resting model's slot s
   std::vector<char> mark_movers(uint8_t outlier, std::vector<uint8_t>& slots) const;
   void apply_instances(std::vector<uint8_t>& slots, std::vector<int>& slot_pixels, uint32_t& taken, const float* depth_m,
                        const std::vector<float>& background_costs, CoFusionFrame& out, std::vector<int>& spawned_slots);

@@ -54,7 +54,9 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       ++slot_pixels[size_t(sp.slot)];
     }
   }
-  scene_unexplained_share_ = scene_unexplained_share(costs.front(), slots, params_.costs.max_explained_cost_m);
+  // Resting models exist only where instances spawn models (semantic/both modes).
+  if (params_.semantic.mode != SegmentationMode::kMotion)
+    scene_unexplained_share_ = scene_unexplained_share(costs.front(), slots, params_.costs.max_explained_cost_m);
   if (semantic_) apply_instances(slots, slot_pixels, taken, depth_m, costs.front(), out, spawned_slots);
   wake_resting(costs.front(), slots, out, spawned_slots);
   upload_labels(slots);
@@ -440,37 +442,41 @@ bool CoFusion::reactivate_at_instance(const MaskInstance& instance, const Eigen:
 
 // Of `pixels`, the share whose background cost is above max_cost_m, among those the background's
 // prediction covers (cost not NaN); nullopt when it covers fewer than half of them (no evidence).
+namespace {
+// Background costs counted: those its prediction covers (not NaN), and of them those above max_cost_m.
+struct UnexplainedCount {
+  size_t covered = 0, unexplained = 0;
+  void add(float cost_m, float max_cost_m) {
+    if (std::isnan(cost_m)) return;
+    ++covered;
+    unexplained += cost_m > max_cost_m;
+  }
+  double share() const { return covered == 0 ? 0.0 : double(unexplained) / double(covered); }
+};
+}  // namespace
+
 std::optional<double> internal::background_unexplained_share(const std::vector<float>& background_costs,
                                                              const std::vector<size_t>& pixels, float max_cost_m) {
-  size_t covered = 0, unexplained = 0;
-  for (size_t i : pixels) {
-    const float c = background_costs[i];
-    if (std::isnan(c)) continue;
-    ++covered;
-    unexplained += c > max_cost_m;
-  }
-  if (covered == 0 || 2 * covered < pixels.size()) return std::nullopt;
-  return double(unexplained) / double(covered);
+  UnexplainedCount count;
+  for (size_t i : pixels) count.add(background_costs[i], max_cost_m);
+  if (count.covered == 0 || 2 * count.covered < pixels.size()) return std::nullopt;
+  return count.share();
 }
 
 // Of the pixels with a model or an outlier label (not movers'), the share whose background cost is
 // above max_cost_m among those the background's prediction covers; 0 when it covers none.
 double internal::scene_unexplained_share(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots,
                                          float max_cost_m) {
-  size_t covered = 0, unexplained = 0;
-  for (size_t i = 0; i < slots.size(); ++i) {
-    const float c = background_costs[i];
-    if (slots[i] == kNoSlot || slots[i] == kMoverSlot || std::isnan(c)) continue;
-    ++covered;
-    unexplained += c > max_cost_m;
-  }
-  return covered == 0 ? 0.0 : double(unexplained) / double(covered);
+  UnexplainedCount count;
+  for (size_t i = 0; i < slots.size(); ++i)
+    if (slots[i] != kNoSlot && slots[i] != kMoverSlot) count.add(background_costs[i], max_cost_m);
+  return count.share();
 }
 
 // SemanticParams::resting_max_unexplained_fraction: a resting model whose pixels the background no
 // longer explains, well beyond how much of the rest of the view it leaves unexplained (a fast turn
-// blurs and misaligns the whole prediction), has moved. From now on it is tracked on its own, and the background drops its
-// surfels on its pixels (as for a new model: it joins `spawned_slots`).
+// blurs and misaligns the whole prediction), has moved. From now on it is tracked on its own, and
+// the background drops its surfels on its pixels (as for a new model: it joins `spawned_slots`).
 void CoFusion::wake_resting(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots,
                             CoFusionFrame& out, std::vector<int>& spawned_slots) {
   std::vector<std::vector<size_t>> pixels(kSlots);
