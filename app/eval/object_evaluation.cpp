@@ -28,6 +28,71 @@ std::map<int, std::filesystem::path> find_id_files(const std::filesystem::path& 
   return out;
 }
 
+namespace {
+// Trajectories of one side (ground truth or estimate) by id, with the files they came from.
+struct IdTrajectories {
+  const std::filesystem::path& dir;
+  const std::map<int, std::filesystem::path>& files;
+  std::map<int, Trajectory>& trajectories;
+};
+using PairErrors = std::map<std::pair<int, int>, ObjectTrajectoryErrors>;  // (est id, gt id)
+
+// The pairs a given mapping names (est id -> gt id), each one's errors computed.
+std::map<int, int> pairs_from_mapping(const std::map<int, int>& est_to_gt, const IdTrajectories& gt,
+                                      const IdTrajectories& est, const ObjectEvaluationParams& params,
+                                      PairErrors& computed) {
+  std::map<int, int> pairs;
+  for (const auto& [e, g] : est_to_gt) {
+    if (!est.files.count(e))
+      throw Error("mapping names model " + std::to_string(e) + " but " + est.dir.string() +
+                  " has no model-" + std::to_string(e) + ".txt");
+    if (!gt.files.count(g))
+      throw Error("mapping names ground truth " + std::to_string(g) + " but " + gt.dir.string() +
+                  " has no groundtruth-" + std::to_string(g) + ".txt");
+    try {
+      computed[{e, g}] = compute_object_trajectory_errors(gt.trajectories[g], est.trajectories[e], params.trajectory);
+    } catch (const Error& err) {
+      throw Error(est.files.at(e).string() + " vs " + gt.files.at(g).string() + ": " + err.what());
+    }
+    if (std::any_of(pairs.begin(), pairs.end(), [&](const auto& p) { return p.second == g; }))
+      throw Error("mapping uses ground truth " + std::to_string(g) + " twice");
+    pairs[e] = g;
+  }
+  return pairs;
+}
+
+// The one-to-one pairing of models with ground-truth objects of least summed error (tracked-point
+// RMSE) among pairs with at least min_matched_poses common timestamps.
+std::map<int, int> pairs_by_least_error(const IdTrajectories& gt, const IdTrajectories& est,
+                                        const ObjectEvaluationParams& params, PairErrors& computed) {
+  std::vector<int> est_ids, gt_ids;
+  for (const auto& kv : est.files) est_ids.push_back(kv.first);
+  for (const auto& kv : gt.files) gt_ids.push_back(kv.first);
+  // Ineligible pairs cost more than any real error, so the matching first maximises the number
+  // of eligible pairs and then minimises their summed error; ineligible picks are dropped after.
+  constexpr double kIneligible = 1e6;
+  Eigen::MatrixXd cost = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(est_ids.size()),
+                                                   static_cast<Eigen::Index>(gt_ids.size()), kIneligible);
+  for (std::size_t i = 0; i < est_ids.size(); ++i)
+    for (std::size_t j = 0; j < gt_ids.size(); ++j) {
+      const Trajectory& g = gt.trajectories[gt_ids[j]];
+      const Trajectory& e = est.trajectories[est_ids[i]];
+      const auto matched = associate_timestamps(sorted_unique(g), sorted_unique(e), params.trajectory.association).size();
+      if (matched < std::max<std::size_t>(params.min_matched_poses, 2)) continue;
+      const auto errors = compute_object_trajectory_errors(g, e, params.trajectory);
+      cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = std::min(errors.tracked_point_m.rmse, kIneligible / 2);
+      computed[{est_ids[i], gt_ids[j]}] = errors;
+    }
+  const std::vector<int> assignment = solve_min_cost_assignment(cost);
+  std::map<int, int> pairs;
+  for (std::size_t i = 0; i < est_ids.size(); ++i) {
+    const int j = assignment[i];
+    if (j >= 0 && cost(static_cast<Eigen::Index>(i), j) < kIneligible) pairs[est_ids[i]] = gt_ids[static_cast<std::size_t>(j)];
+  }
+  return pairs;
+}
+}  // namespace
+
 ObjectsEvaluation evaluate_object_dirs(const std::filesystem::path& gt_dir, const std::filesystem::path& est_dir,
                                        const std::optional<std::map<int, int>>& est_to_gt,
                                        const ObjectEvaluationParams& params_in) {
@@ -56,46 +121,10 @@ ObjectsEvaluation evaluate_object_dirs(const std::filesystem::path& gt_dir, cons
     }
     out.drift_world = "cameras";
   }
-  std::map<int, int> pairs;  // est id -> gt id
   std::map<std::pair<int, int>, ObjectTrajectoryErrors> computed;
-  if (est_to_gt) {
-    for (const auto& [e, g] : *est_to_gt) {
-      if (!est_files.count(e)) throw Error("mapping names model " + std::to_string(e) + " but " + est_dir.string() + " has no model-" + std::to_string(e) + ".txt");
-      if (!gt_files.count(g)) throw Error("mapping names ground truth " + std::to_string(g) + " but " + gt_dir.string() + " has no groundtruth-" + std::to_string(g) + ".txt");
-      try {
-        computed[{e, g}] = compute_object_trajectory_errors(gt[g], est[e], params.trajectory);
-      } catch (const Error& err) {
-        throw Error(est_files.at(e).string() + " vs " + gt_files.at(g).string() + ": " + err.what());
-      }
-      if (std::any_of(pairs.begin(), pairs.end(), [&](const auto& p) { return p.second == g; }))
-        throw Error("mapping uses ground truth " + std::to_string(g) + " twice");
-      pairs[e] = g;
-    }
-  } else {
-    std::vector<int> est_ids, gt_ids;
-    for (const auto& kv : est_files) est_ids.push_back(kv.first);
-    for (const auto& kv : gt_files) gt_ids.push_back(kv.first);
-    // Ineligible pairs cost more than any real error, so the matching first maximises the number
-    // of eligible pairs and then minimises their summed error; ineligible picks are dropped after.
-    constexpr double kIneligible = 1e6;
-    Eigen::MatrixXd cost = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(est_ids.size()),
-                                                     static_cast<Eigen::Index>(gt_ids.size()), kIneligible);
-    for (std::size_t i = 0; i < est_ids.size(); ++i)
-      for (std::size_t j = 0; j < gt_ids.size(); ++j) {
-        const Trajectory& g = gt[gt_ids[j]];
-        const Trajectory& e = est[est_ids[i]];
-        const auto matched = associate_timestamps(sorted_unique(g), sorted_unique(e), params.trajectory.association).size();
-        if (matched < std::max<std::size_t>(params.min_matched_poses, 2)) continue;
-        const auto errors = compute_object_trajectory_errors(g, e, params.trajectory);
-        cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = std::min(errors.tracked_point_m.rmse, kIneligible / 2);
-        computed[{est_ids[i], gt_ids[j]}] = errors;
-      }
-    const std::vector<int> assignment = solve_min_cost_assignment(cost);
-    for (std::size_t i = 0; i < est_ids.size(); ++i) {
-      const int j = assignment[i];
-      if (j >= 0 && cost(static_cast<Eigen::Index>(i), j) < kIneligible) pairs[est_ids[i]] = gt_ids[static_cast<std::size_t>(j)];
-    }
-  }
+  const std::map<int, int> pairs =  // est id -> gt id
+      est_to_gt ? pairs_from_mapping(*est_to_gt, {gt_dir, gt_files, gt}, {est_dir, est_files, est}, params, computed)
+                : pairs_by_least_error({gt_dir, gt_files, gt}, {est_dir, est_files, est}, params, computed);
 
   for (const auto& [e, g] : pairs) {
     ObjectPairResult r;

@@ -294,6 +294,61 @@ L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, cons
   return mp;
 }
 
+// Fusion of a model (`surfels`: its count and capacity) at T_camera_model in `area` of the image.
+L::FuseParams fuse_params(const Eigen::Isometry3d& T_camera_model, const Intrinsics& k, std::pair<unsigned, unsigned> surfels,
+                          int frame, const FusionParams& params, uint32_t label_mask, const PixelRect& area,
+                          float colour_gain) {
+  L::FuseParams fp{};
+  to_rows(T_camera_model, fp.T_camera_model);
+  fp.fx = float(k.fx), fp.fy = float(k.fy), fp.cx = float(k.cx), fp.cy = float(k.cy);
+  fp.width = uint32_t(k.width), fp.height = uint32_t(k.height);
+  fp.grid_scale = uint32_t(params.index_map_scale);
+  fp.surfel_count = surfels.first;
+  fp.capacity = surfels.second;
+  fp.frame = frame;
+  fp.max_depth_diff_rel = params.max_depth_diff_rel;
+  fp.min_normal_dot = float(std::cos(params.max_normal_angle_deg * M_PI / 180.0));
+  fp.max_radius_growth = params.max_radius_growth;
+  fp.label_mask = label_mask;
+  fp.rect_x0 = uint32_t(area.x0), fp.rect_y0 = uint32_t(area.y0), fp.rect_x1 = uint32_t(area.x1),
+  fp.rect_y1 = uint32_t(area.y1);
+  fp.colour_gain = colour_gain;
+  fp.new_surfel_clearance_cells = uint32_t(std::max(params.new_surfel_clearance_cells, 0));
+  return fp;
+}
+
+// The splat into fusion's index map (grid_scale cells per pixel): every surfel takes part.
+L::SplatParams fusion_splat_params(const L::FuseParams& fp, const FusionParams& params) {
+  L::SplatParams sp{};
+  std::copy(fp.T_camera_model, fp.T_camera_model + 12, sp.T_camera_model);
+  sp.fx = fp.fx, sp.fy = fp.fy, sp.cx = fp.cx, sp.cy = fp.cy;
+  sp.width = fp.width * fp.grid_scale, sp.height = fp.height * fp.grid_scale;
+  sp.surfel_count = fp.surfel_count;
+  sp.min_confidence = 0.0f;
+  sp.frame = fp.frame;
+  sp.recent_window_frames = 0;
+  sp.grid_scale = fp.grid_scale;
+  sp.footprint_px = uint32_t(params.index_map_footprint);
+  sp.offset_penalty_rel = params.index_map_offset_penalty_rel;
+  return sp;
+}
+
+// Cleanup after fusion, over up to `most_surfels` surfels (the old ones and the new).
+L::CleanupParams cleanup_params(const L::FuseParams& fp, unsigned most_surfels, const FusionParams& params, bool merge) {
+  L::CleanupParams cp{};
+  std::copy(fp.T_camera_model, fp.T_camera_model + 12, cp.T_camera_model);
+  cp.fx = fp.fx, cp.fy = fp.fy, cp.cx = fp.cx, cp.cy = fp.cy;
+  cp.width = fp.width, cp.height = fp.height;
+  cp.surfel_count = most_surfels;
+  cp.frame = fp.frame;
+  cp.stable_confidence = params.stable_confidence;
+  cp.unstable_window_frames = params.unstable_window_frames;
+  cp.free_space_margin_rel = params.free_space_margin_rel;
+  cp.free_space_penalty = params.free_space_penalty;
+  cp.merge = merge ? 1u : 0u;
+  return cp;
+}
+
 // FuseParams' pixel rectangle within the image: width and height (0 x 0 when it is empty).
 std::pair<uint32_t, uint32_t> rect_size(const L::FuseParams& p) {
   const int w = int(std::min(p.rect_x1, p.width)) - int(p.rect_x0), h = int(std::min(p.rect_y1, p.height)) - int(p.rect_y0);
@@ -389,49 +444,12 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   model.ensure_fusion_scratch(pixels, size_t(pixels) * size_t(S) * size_t(S));
   const gpu::BufferPtr& index_map = model.index_map_;
 
-  float T[12];
-  to_rows(T_camera_model, T);
-  L::SplatParams sp{};
-  std::copy(T, T + 12, sp.T_camera_model);
-  sp.fx = float(k.fx), sp.fy = float(k.fy), sp.cx = float(k.cx), sp.cy = float(k.cy);
-  sp.width = uint32_t(k.width * S), sp.height = uint32_t(k.height * S);
-  sp.surfel_count = model.count_;
-  sp.min_confidence = 0.0f;  // every surfel may take part in association
-  sp.frame = frame;
-  sp.recent_window_frames = 0;
-  sp.grid_scale = uint32_t(S);
-  sp.footprint_px = uint32_t(params.index_map_footprint);
-  sp.offset_penalty_rel = params.index_map_offset_penalty_rel;
-
-  L::FuseParams fp{};
-  std::copy(T, T + 12, fp.T_camera_model);
-  fp.fx = sp.fx, fp.fy = sp.fy, fp.cx = sp.cx, fp.cy = sp.cy;
-  fp.width = uint32_t(k.width), fp.height = uint32_t(k.height);
-  fp.grid_scale = uint32_t(S);
-  fp.surfel_count = model.count_;
-  fp.capacity = model.capacity_;
-  fp.frame = frame;
-  fp.max_depth_diff_rel = params.max_depth_diff_rel;
-  fp.min_normal_dot = float(std::cos(params.max_normal_angle_deg * M_PI / 180.0));
-  fp.max_radius_growth = params.max_radius_growth;
-  fp.label_mask = labels ? (label < 32 ? 1u << label : 0u) | also_labels : FUSE_ALL_LABELS;
-  fp.rect_x0 = uint32_t(area.x0), fp.rect_y0 = uint32_t(area.y0), fp.rect_x1 = uint32_t(area.x1),
-  fp.rect_y1 = uint32_t(area.y1);
-  fp.colour_gain = colour_gain;
-  fp.new_surfel_clearance_cells = uint32_t(std::max(params.new_surfel_clearance_cells, 0));
-
-  L::CleanupParams cp{};
-  std::copy(T, T + 12, cp.T_camera_model);
-  cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy;
-  cp.width = fp.width, cp.height = fp.height;
-  cp.surfel_count = most_surfels;
-  cp.frame = frame;
-  cp.stable_confidence = params.stable_confidence;
-  cp.unstable_window_frames = params.unstable_window_frames;
-  cp.free_space_margin_rel = params.free_space_margin_rel;
-  cp.free_space_penalty = params.free_space_penalty;
+  const uint32_t label_mask = labels ? (label < 32 ? 1u << label : 0u) | also_labels : FUSE_ALL_LABELS;
+  const L::FuseParams fp =
+      fuse_params(T_camera_model, k, {model.count_, model.capacity_}, frame, params, label_mask, area, colour_gain);
+  const L::SplatParams sp = fusion_splat_params(fp, params);
   const bool merge = params.merge_distance_rel > 0.0f && model.count_ > 0;
-  cp.merge = merge ? 1u : 0u;
+  const L::CleanupParams cp = cleanup_params(fp, most_surfels, params, merge);
   const L::MergeParams mp = merge_params(fp, most_surfels, params);
 
   const gpu::BufferPtr& label_buffer = labels ? labels : model.no_labels_;

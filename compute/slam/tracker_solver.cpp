@@ -77,6 +77,51 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (p.reduction_workgroups < 1) bad("reduction_workgroups must be >= 1");
 }
 
+namespace {
+// The iteration's figures from its sums (correspondences, inlier ratio, RMS residuals) and the
+// robust scales and exposure gain of the next iteration.
+void take_statistics(const LinearSystemSums& s, const TrackerParams& params, TrackingResult& result,
+                     IterationScales& scales) {
+  ++result.iterations;
+  result.icp_inliers = static_cast<int>(s.icp[28]);
+  result.rgb_residuals = static_cast<int>(s.rgb[28]);
+  result.valid_live_pixels = static_cast<int>(s.valid_live_pixels);
+  result.occluding_live_pixels = static_cast<int>(s.occluding_live_pixels);
+  const double comparable = s.valid_live_pixels - s.occluding_live_pixels;
+  result.inlier_ratio = comparable > 0 ? s.icp[28] / comparable : 0.0;
+  result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
+  result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
+  result.live_intensity_gain = scales.live_gain;
+  scales = {params.icp_huber_k * result.icp_rms_m, params.photometric_huber_k * result.rgb_rms,
+            exposure_gain(s, params, scales.live_gain)};
+}
+
+// The normal equations of the ICP term plus the weighted photometric term.
+void combined_system(const LinearSystemSums& s, const TrackerParams& params, Matrix6d& H, Vector6d& b) {
+  unpack_term(s.icp, H, b);
+  if (params.use_photometric && s.rgb[28] > 0) {
+    Matrix6d H_rgb;
+    Vector6d b_rgb;
+    unpack_term(s.rgb, H_rgb, b_rgb);
+    H += params.photometric_weight * H_rgb;
+    b += params.photometric_weight * b_rgb;
+  }
+}
+
+// Why the converged pose is refused (`delta` = guess^-1 * pose: it moved too far from the guess;
+// too few inliers), or empty.
+std::string refusal(const TrackingResult& result, const Eigen::Isometry3d& delta, const TrackerParams& params) {
+  const double moved_t = delta.translation().norm(), moved_r = rotation_angle_rad(delta);
+  if (moved_t > params.max_translation_from_guess_m || moved_r > params.max_rotation_from_guess_deg * kRadPerDeg)
+    return "moved too far from the guess: " + fmt(moved_t) + " m, " + fmt(moved_r / kRadPerDeg) + " deg";
+  if (result.inlier_ratio < params.min_inlier_ratio)
+    return "inlier ratio " + fmt(result.inlier_ratio) + " < " + fmt(params.min_inlier_ratio) + " (" +
+           std::to_string(result.icp_inliers) + " of " + std::to_string(result.valid_live_pixels) +
+           " valid live pixels, " + std::to_string(result.occluding_live_pixels) + " of them occluding)";
+  return {};
+}
+}  // namespace
+
 TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtLevel& sums,
                             const Eigen::Isometry3d& guess, const TrackerParams& params) {
   TrackingResult result;
@@ -109,31 +154,15 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
         }
       }
       evaluated = true;
-      ++result.iterations;
-      result.icp_inliers = static_cast<int>(s.icp[28]);
-      result.rgb_residuals = static_cast<int>(s.rgb[28]);
-      result.valid_live_pixels = static_cast<int>(s.valid_live_pixels);
-      result.occluding_live_pixels = static_cast<int>(s.occluding_live_pixels);
-      const double comparable = s.valid_live_pixels - s.occluding_live_pixels;
-      result.inlier_ratio = comparable > 0 ? s.icp[28] / comparable : 0.0;
-      result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
-      result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
-      result.live_intensity_gain = scales.live_gain;
-      scales = {params.icp_huber_k * result.icp_rms_m, params.photometric_huber_k * result.rgb_rms,
-                exposure_gain(s, params, scales.live_gain)};
+      take_statistics(s, params, result, scales);
       if (level > 0 && s.icp[28] < params.min_coarse_level_correspondences) break;  // on to the next finer level
       if (s.icp[28] < min_corr)
         return fail("too few ICP correspondences at " + where + ": " + std::to_string(result.icp_inliers) +
                     " < " + fmt(min_corr));
 
-      Matrix6d H, H_rgb;
-      Vector6d b, b_rgb;
-      unpack_term(s.icp, H, b);
-      if (params.use_photometric && s.rgb[28] > 0) {
-        unpack_term(s.rgb, H_rgb, b_rgb);
-        H += params.photometric_weight * H_rgb;
-        b += params.photometric_weight * b_rgb;
-      }
+      Matrix6d H;
+      Vector6d b;
+      combined_system(s, params, H, b);
       if (!H.allFinite() || !b.allFinite()) return fail("non-finite linear system at " + where);
       result.eigenvalue_ratio = balanced_eigenvalue_ratio(H);
       // A coarse level of a small object can be degenerate where the finer ones are not (a box
@@ -164,14 +193,7 @@ TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtL
   }
   if (!evaluated) return fail("no Gauss-Newton iterations configured");
 
-  const Eigen::Isometry3d delta = guess.inverse() * T;
-  const double moved_t = delta.translation().norm(), moved_r = rotation_angle_rad(delta);
-  if (moved_t > params.max_translation_from_guess_m || moved_r > params.max_rotation_from_guess_deg * kRadPerDeg)
-    return fail("moved too far from the guess: " + fmt(moved_t) + " m, " + fmt(moved_r / kRadPerDeg) + " deg");
-  if (result.inlier_ratio < params.min_inlier_ratio)
-    return fail("inlier ratio " + fmt(result.inlier_ratio) + " < " + fmt(params.min_inlier_ratio) + " (" +
-                std::to_string(result.icp_inliers) + " of " + std::to_string(result.valid_live_pixels) +
-                " valid live pixels, " + std::to_string(result.occluding_live_pixels) + " of them occluding)");
+  if (const std::string refused = refusal(result, guess.inverse() * T, params); !refused.empty()) return fail(refused);
   result.T_reference_live = T;
   return result;
 }
