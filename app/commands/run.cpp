@@ -638,7 +638,7 @@ void add_run(CLI::App& app) {
                   "Comma-separated classes whose pixels are never modelled, fused or tracked with (default person; "
                   "\"\" = none)");
   cmd->add_option("--detector-every", o->detector_every,
-                  "Start a detection on every Nth frame only (default 1; the frames between get no masks)")
+                  "Start a detection on every Nth frame only (default 1; the frames between get the last detection's masks, carried by the camera's motion)")
       ->check(CLI::Range(1, 1000));
   cmd->add_option("--classes", o->classes, "Comma-separated classes that become models in semantic/both modes (default all)");
   o->gpu.add_to(*cmd);

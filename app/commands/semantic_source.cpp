@@ -7,6 +7,12 @@
 
 namespace cofusion::commands {
 
+namespace {
+// A live camera's frames do not wait for the detector: a result may finish a few processed frames
+// after its frame; it is used for this many frames more than on a recording.
+constexpr int kLiveExtraAgeFrames = 2;
+}  // namespace
+
 std::filesystem::path default_models_dir() {
   std::error_code ec;
   const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
@@ -43,7 +49,7 @@ bool AsyncDetector::submit(int frame_index, const cv::Mat& rgb, const cv::Mat& d
   jobs_.wait();  // the finished task's group (returns at once)
   running_.store(true, std::memory_order_release);
   ++started_;
-  jobs_.run([this, frame_index, rgb = rgb.clone(), depth = depth_m.clone()] {
+  jobs_.run([this, frame_index, call = calls_, rgb = rgb.clone(), depth = depth_m.clone()] {
     const auto start = std::chrono::steady_clock::now();
     slam::SemanticFrame s;
     try {
@@ -60,20 +66,27 @@ bool AsyncDetector::submit(int frame_index, const cv::Mat& rgb, const cv::Mat& d
     ++finished_;
     if (!s.ids.empty()) {
       result_ = std::move(s);
-      result_frame_ = frame_index;
+      result_call_ = call;
     }
     running_.store(false, std::memory_order_release);
   });
   return true;
 }
 
-const slam::SemanticFrame* AsyncDetector::for_frame(int frame_index) {
+const slam::SemanticFrame* AsyncDetector::for_frame() {
+  ++calls_;
   if (wait_for_result_) jobs_.wait();
-  if (!running_.load(std::memory_order_acquire) && result_frame_ > current_frame_) {
+  if (!running_.load(std::memory_order_acquire) && result_call_ > current_call_) {
     current_ = result_;
-    current_frame_ = result_frame_;
+    current_call_ = result_call_;
+    current_.repeated = false;
+    current_.age_frames = 0;
+  } else if (current_.age_frames > 0) {
+    current_.repeated = true;
   }
-  if (current_frame_ < 0 || frame_index < current_frame_ || frame_index - current_frame_ > max_age_frames_) return nullptr;
+  if (current_call_ < 0) return nullptr;
+  current_.age_frames = calls_ - current_call_;
+  if (current_.age_frames < 1 || current_.age_frames > max_age_frames_) return nullptr;
   ++used_;
   return &current_;
 }
@@ -113,8 +126,9 @@ const slam::SemanticFrame* FrameMasks::for_frame(const Frame& frame, const cv::M
   }
   if (source_ != "detector") return nullptr;
   if (!detector_)
-    detector_ = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics_, wait_for_detections_, detector_every_);
-  const slam::SemanticFrame* previous = detector_->for_frame(frame.index);
+    detector_ = std::make_unique<AsyncDetector>(default_models_dir(), intrinsics_, wait_for_detections_, detector_every_,
+                                                detector_every_ + (wait_for_detections_ ? 0 : kLiveExtraAgeFrames));
+  const slam::SemanticFrame* previous = detector_->for_frame();
   detector_->submit(frame.index, rgb, depth_m);
   return previous;
 }

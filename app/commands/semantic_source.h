@@ -26,16 +26,17 @@ std::optional<slam::SemanticFrame> semantic_frame_from_masks(const Frame& frame)
 
 // The detector on a TBB task, one frame at a time. The pipeline never waits for it: submit()
 // starts a detection on a frame when none is running (else the frame is skipped), and
-// for_frame() hands out the latest finished result only for a frame at most max_age_frames after
-// the one it was made from. A result is not carried further (moving people would be excluded
-// where they were, not where they are): warping masks by the models' motion is not done. With
-// max_age_frames = 1 a result made from frame k is used for frame k + 1 when it finished before
-// that frame is processed (it cannot be used for frame k itself without waiting).
+// for_frame() hands out the latest finished result for the frames after the one it was made
+// from, up to max_age_frames frames after it, with SemanticFrame::age_frames set (CoFusion carries
+// the masks to each frame by the camera's motion) and SemanticFrame::repeated from its second
+// frame on. Ages count for_frame() calls: one per processed frame. A result made from frame k is
+// first used for frame k + 1 when it finished before that frame is processed (it cannot be used
+// for frame k itself without waiting).
 // With `wait_for_result` (recordings), for_frame() first waits for a running detection, so each
 // frame gets the previous frame's result whatever the timing: runs are reproducible. A live camera
 // does not wait (frames keep coming). With `every_frames` N > 1 detections start only on frames
-// whose index is a multiple of N (the detector's share of the CPU bounded; the frames between get
-// no masks: their people are followed as movers by the motion segmentation).
+// whose index is a multiple of N (the detector's share of the CPU bounded), and each result is
+// carried to the N frames until the next one.
 class AsyncDetector {
  public:
   // models: folder with centernet.pb and selfie.pb. Throws cofusion::Error naming a missing file.
@@ -46,10 +47,12 @@ class AsyncDetector {
   AsyncDetector& operator=(const AsyncDetector&) = delete;
 
   // Starts a detection on this frame (its pixels are copied) unless one is running or the frame
-  // is not one of every_frames. Returns whether it started.
+  // is not one of every_frames. Call it after for_frame() of the same frame. Returns whether it
+  // started.
   bool submit(int frame_index, const cv::Mat& rgb, const cv::Mat& depth_m);
-  // The masks for frame `frame_index` (see the class comment), or null. Valid until the next call.
-  const slam::SemanticFrame* for_frame(int frame_index);
+  // The masks for the next processed frame (see the class comment), or null. Valid until the next
+  // call.
+  const slam::SemanticFrame* for_frame();
 
   int detections_started() const { return started_; }
   int results_used() const { return used_; }
@@ -64,14 +67,15 @@ class AsyncDetector {
   int max_age_frames_;
   tbb::task_group jobs_;
   std::atomic<bool> running_{false};
+  int calls_ = -1;  // for_frame() calls so far, minus one: the current frame's position
   // Written by the task before running_ is cleared, read by the caller after it saw it cleared.
-  int result_frame_ = -1;
+  int result_call_ = -1;  // calls_ when the result's frame was submitted
   slam::SemanticFrame result_;
   double total_ms_ = 0;
   int finished_ = 0, started_ = 0, used_ = 0;
   // The result handed out (a copy: the task may overwrite result_ meanwhile).
   slam::SemanticFrame current_;
-  int current_frame_ = -1;
+  int current_call_ = -1;
 };
 
 // Where the instance masks come from when --semantic-source does not say, decided at the first
@@ -87,8 +91,8 @@ class FrameMasks {
   FrameMasks(std::string source, bool motion_segmentation, const Intrinsics& intrinsics, bool wait_for_detections,
              int detector_every);
 
-  // This frame's masks (null: none). The detector gives the detection made from the previous frame,
-  // then starts one of this frame (when none is running); with wait_for_detections (recordings)
+  // This frame's masks (null: none). The detector gives its latest detection made from an earlier
+  // frame (AsyncDetector::for_frame), then starts one of this frame (when none is running); with wait_for_detections (recordings)
   // the next frame waits for it, a live camera never does. Throws cofusion::Error for a frame
   // without masks when the source is `masks`.
   const slam::SemanticFrame* for_frame(const Frame& frame, const cv::Mat& rgb, const cv::Mat& depth_m);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <cstdio>
+#include <functional>
 #include <numeric>
 #include <span>
 
@@ -452,24 +453,11 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   main_stream_.wait(preprocessed);
   stage("preprocess");
 
-  Model& bg = *active.front();
-  CameraState camera = CameraState::kTracking;
-  if (frame_ > 0 && !lost_) {
-    for_each_model(active, [&](Model& m) { predict_model(m, preprocessed); });
-    stage("predict");
-    std::string refusal;
-    camera = track_models(active, depth_m, refusal);
-    if (!refusal.empty()) out.events.push_back("frame " + std::to_string(frame_) + ": " + refusal);
-    stage("track");
-  } else if (frame_ > 0) {
-    camera = relocalise(bg, encoding, keyframes_.features(rgb, depth_m, intrinsics_)) ? CameraState::kRecovered
-                                                                                      : CameraState::kLost;
-    if (camera == CameraState::kRecovered) out.events.push_back("frame " + std::to_string(frame_) + ": camera relocalised");
-    stage("relocalise");
-  }
+  const CameraState camera = track_or_relocalise(active, depth_m, rgb, encoding, preprocessed, out, stage);
   out.camera_state = camera;
   const Clock::time_point gpu_end = Clock::now();
   update_poses(active, out);
+  if (semantic_ && camera != CameraState::kLost) semantic_ = carried_to_this_frame(*semantic_, depth_m);
 
   std::vector<int> spawned_slots;
   cpu_jobs.wait();
@@ -492,6 +480,29 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   return out;
 }
 
+// Predicts and tracks every active model, or, while the camera is lost, tries to relocalise it
+// (the first frame does neither). `stage` closes a timed stage.
+CameraState CoFusion::track_or_relocalise(const std::vector<Model*>& active, const float* depth_m, const uint8_t* rgb,
+                                          const FrameEncoding& encoding, const gpu::TimelinePoint& preprocessed,
+                                          CoFusionFrame& out, const std::function<void(const char*)>& stage) {
+  if (frame_ == 0) return CameraState::kTracking;
+  if (!lost_) {
+    for_each_model(active, [&](Model& m) { predict_model(m, preprocessed); });
+    stage("predict");
+    std::string refusal;
+    const CameraState camera = track_models(active, depth_m, refusal);
+    if (!refusal.empty()) out.events.push_back("frame " + std::to_string(frame_) + ": " + refusal);
+    stage("track");
+    return camera;
+  }
+  const CameraState camera = relocalise(*active.front(), encoding, keyframes_.features(rgb, depth_m, intrinsics_))
+                                 ? CameraState::kRecovered
+                                 : CameraState::kLost;
+  if (camera == CameraState::kRecovered) out.events.push_back("frame " + std::to_string(frame_) + ": camera relocalised");
+  stage("relocalise");
+  return camera;
+}
+
 // Checks the frame's instance masks and returns its excluded pixels (SemanticParams::exclude,
 // empty without masks): they are mover pixels from the start, so that no model tracks with them
 // this frame, and again after the segmentation.
@@ -500,11 +511,28 @@ std::vector<uint8_t> CoFusion::begin_semantic_frame(const SemanticFrame* semanti
   semantic_ = semantic;
   if (!semantic) return excluded;
   check_semantic_frame(*semantic, size_t(intrinsics_.width) * intrinsics_.height);
-  if (excluded_pixels(*semantic, params_.semantic, excluded) > 0 && !params_.motion_segmentation)
+  // Excluded pixels are where the masks saw their movers (grown by exclude_margin_px), not carried
+  // to this frame as the instances are after tracking: the carrying follows the estimated motion
+  // that the exclusion keeps movers out of, and where people fill the view that estimate can be off.
+  excluded_pixels(*semantic, params_.semantic, excluded);
+  if (!excluded.empty() && !params_.motion_segmentation)
     throw Error("excluding classes by their masks needs motion segmentation (not implemented for background-only runs)");
   if (!excluded.empty()) grow_mask(excluded, intrinsics_.width, params_.semantic.exclude_margin_px);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
   return excluded;
+}
+
+// Masks made from an earlier frame, carried to this one by the camera's motion since (this frame's
+// tracked pose). Masks older than the pose history, or from a frame where the camera was lost, are
+// taken as they are.
+const SemanticFrame* CoFusion::carried_to_this_frame(const SemanticFrame& semantic, const float* depth_m) {
+  const int age = semantic.age_frames;
+  if (age <= 0 || age > int(camera_history_.size())) return &semantic;
+  const std::optional<Eigen::Isometry3d>& T_world_made = camera_history_[camera_history_.size() - size_t(age)];
+  if (!T_world_made) return &semantic;
+  const Eigen::Isometry3d T_made_current = T_world_made->inverse() * T_world_camera_;
+  carried_semantic_ = carry_semantic_frame(semantic, depth_m, intrinsics_, T_made_current);
+  return &carried_semantic_;
 }
 
 uint32_t CoFusion::resting_slots(const std::vector<Model*>& models) {
@@ -750,6 +778,8 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   if (params_.camera_check.enabled) {
     previous_depth_m_.assign(depth_m, depth_m + n);
   }
+  camera_history_.push_back(camera == CameraState::kLost ? std::nullopt : std::optional(T_world_camera_));
+  if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();
   ++frame_;
   semantic_ = nullptr;  // the caller's, valid during process() only
 }

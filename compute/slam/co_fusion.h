@@ -19,6 +19,8 @@
 // With instance masks (process()'s `semantic`, semantic_masks.h) pixels of excluded classes are
 // kept out of steps 2-5 (mover pixels), and in step 4 instances of modelled classes join the
 // models they overlap and, in the semantic/both modes, spawn models of their own.
+#include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -319,8 +321,9 @@ class CoFusion {
 
   // Processes the next frame: `depth_m` width*height floats in metres (0/NaN = no reading), `rgb`
   // width*height*3 bytes, `semantic` the frame's instance masks when there are any (made from this
-  // frame; see semantic_masks.h): pixels of excluded classes are mover pixels (no fusion, no
-  // tracking, no spawning). Masks need motion_segmentation (the label map that keeps them out).
+  // frame or, SemanticFrame::age_frames, from an earlier one: then its instances are carried to
+  // this frame by the camera's tracked motion since; see semantic_masks.h): pixels of excluded
+  // classes are mover pixels (no fusion, no tracking, no spawning). Masks need motion_segmentation (the label map that keeps them out).
   CoFusionFrame process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic = nullptr);
   // The input skipped frames since the last process() (unreadable, or without depth): the camera
   // may have moved further than tracking from the last pose reaches, so the next frame is
@@ -348,7 +351,11 @@ class CoFusion {
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;
   // The steps of process(), in order.
   std::vector<uint8_t> begin_semantic_frame(const SemanticFrame* semantic);
+  const SemanticFrame* carried_to_this_frame(const SemanticFrame& semantic, const float* depth_m);
   void set_work_rects(const std::vector<Model*>& active);
+  CameraState track_or_relocalise(const std::vector<Model*>& active, const float* depth_m, const uint8_t* rgb,
+                                  const FrameEncoding& encoding, const gpu::TimelinePoint& preprocessed, CoFusionFrame& out,
+                                  const std::function<void(const char*)>& stage);
   template <typename Work>
   static void for_each_model(const std::vector<Model*>& models, const Work& work);
   CameraState track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal);
@@ -457,6 +464,11 @@ class CoFusion {
   int last_recovery_frame_ = -1000000;
   // This frame's instance masks (null without), and the instances no model covers yet.
   const SemanticFrame* semantic_ = nullptr;
+  SemanticFrame carried_semantic_;  // older masks carried to this frame (SemanticFrame::age_frames)
+  // T_world_camera of the last processed frames, oldest first (none where the camera was lost):
+  // what older masks are carried from. Masks older than this many frames are taken as they are.
+  static constexpr size_t kCameraHistoryFrames = 16;
+  std::deque<std::optional<Eigen::Isometry3d>> camera_history_;
   uint32_t resting_slots_ = 0;  // this frame's label slots of resting models (Model::resting)
   InstanceCandidates instance_candidates_;
   int next_id_ = 1;

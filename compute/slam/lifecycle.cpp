@@ -364,7 +364,7 @@ void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& sl
 }
 
 // The instances no model covers (apply_instances): each one seen in confirm_frames consecutive
-// frames re-activates an inactive model of its class there (reactivate_at_instance) or spawns a
+// frames (repeated masks are no new sighting: SemanticFrame::repeated) re-activates an inactive model of its class there (reactivate_at_instance) or spawns a
 // model with no probation (it need not move), resting where the background explains it
 // (SemanticParams::resting_max_unexplained_fraction); else its surfels leave the older models as a
 // motion spawn's do, and its first tracking starts from its centroid's step over the last frame.
@@ -374,6 +374,7 @@ void CoFusion::spawn_instances(const std::vector<const MaskInstance*>& uncovered
                                std::vector<int>& spawned_slots) {
   const SemanticParams& sp = params_.semantic;
   const size_t n = slots.size();
+  if (semantic_->repeated) return;  // a detection carried on is no new sighting
   std::vector<std::optional<Eigen::Vector3d>> centroids;  // camera frame; instances have pixels with depth
   for (const MaskInstance* inst : uncovered) centroids.push_back(region_centroid(inst->pixels, depth_m));
   const std::vector<InstanceCandidates::Seen> seen = instance_candidates_.update(uncovered, centroids, n);

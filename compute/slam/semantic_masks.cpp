@@ -1,6 +1,7 @@
 #include "slam/semantic_masks.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <opencv2/imgproc.hpp>
 
@@ -27,6 +28,33 @@ void check_semantic_frame(const SemanticFrame& frame, size_t pixels) {
   if (frame.ids.size() != pixels)
     throw Error("semantic masks have " + std::to_string(frame.ids.size()) + " pixels, the frame " +
                 std::to_string(pixels));
+}
+
+SemanticFrame carry_semantic_frame(const SemanticFrame& made, const float* depth_m, const Intrinsics& intrinsics,
+                                   const Eigen::Isometry3d& T_made_current) {
+  const int width = intrinsics.width, height = intrinsics.height;
+  check_semantic_frame(made, size_t(width) * size_t(height));
+  SemanticFrame carried;
+  carried.classes = made.classes;
+  carried.age_frames = made.age_frames;
+  carried.repeated = made.repeated;
+  carried.ids.assign(made.ids.size(), 0);
+  const Eigen::Matrix3d R = T_made_current.linear();
+  const Eigen::Vector3d t = T_made_current.translation();
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u) {
+      const size_t i = size_t(v) * size_t(width) + size_t(u);
+      const double z = depth_m[i];
+      if (!(z > 0)) continue;
+      const Eigen::Vector3d p_current((u - intrinsics.cx) / intrinsics.fx * z, (v - intrinsics.cy) / intrinsics.fy * z, z);
+      const Eigen::Vector3d p_made = R * p_current + t;
+      if (!(p_made.z() > 0)) continue;
+      const double x = intrinsics.fx * p_made.x() / p_made.z() + intrinsics.cx;
+      const double y = intrinsics.fy * p_made.y() / p_made.z() + intrinsics.cy;
+      if (!(x > -0.5 && x < width - 0.5 && y > -0.5 && y < height - 0.5)) continue;  // NaN too
+      carried.ids[i] = made.ids[size_t(std::lround(y)) * size_t(width) + size_t(std::lround(x))];
+    }
+  return carried;
 }
 
 bool is_excluded_class(const SemanticParams& params, const std::string& class_name) {

@@ -16,6 +16,9 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "common/intrinsics.h"
 
 namespace cofusion::slam {
 
@@ -26,6 +29,14 @@ struct SemanticFrame {
   // Class name of each non-zero id ("person", "can", ...). An id without an entry has no class:
   // it is neither excluded nor modelled.
   std::map<uint16_t, std::string> classes;
+  // Processed frames between the frame the masks were made from and the frame they are given with
+  // (0: made from it; the detector's come from an earlier frame). CoFusion carries older masks to
+  // the frame by the camera's motion since (carry_semantic_frame).
+  int age_frames = 0;
+  // Whether these masks were given with an earlier frame already (a detection carried on to the
+  // frames until the next one): they still exclude and join, but count no new sighting towards a
+  // spawn (SemanticParams::confirm_frames).
+  bool repeated = false;
 };
 
 enum class SegmentationMode {
@@ -77,6 +88,14 @@ void check_semantic_frame(const SemanticFrame& frame, size_t pixels);
 // never an excluded one).
 bool is_excluded_class(const SemanticParams& params, const std::string& class_name);
 bool is_modelled_class(const SemanticParams& params, const std::string& class_name);
+
+// `made`'s masks carried to the current frame (a backward warp): each pixel of the current frame
+// with depth is moved into the camera the masks were made from (T_made_current, metres) and takes
+// the id of the pixel it lands on (nearest); pixels without depth or landing outside that image get
+// 0. This follows the camera's motion since; a mover's own motion is not followed (that is what
+// SemanticParams::exclude_margin_px and the motion segmentation are for). Classes are copied.
+SemanticFrame carry_semantic_frame(const SemanticFrame& made, const float* depth_m, const Intrinsics& intrinsics,
+                                   const Eigen::Isometry3d& T_made_current);
 
 // Per pixel 1 where the pixel's instance has an excluded class, else 0. Returns the count of such
 // pixels (0: `excluded` is left empty).

@@ -74,6 +74,52 @@ TEST(SemanticMasks, ExcludedPixelsAreThoseOfExcludedClasses) {
   EXPECT_FALSE(slam::parse_segmentation_mode("semantics"));
 }
 
+// Masks made from an earlier frame are carried to the current one by the camera's motion: a
+// sideways step of the camera over a wall 2 m away shifts them by fx * step / depth pixels; pixels
+// without depth, or seeing what the earlier frame did not, get no instance.
+TEST(SemanticMasks, CarriedMasksFollowTheCameraMotion) {
+  Intrinsics k;
+  k.width = 40, k.height = 30, k.fx = k.fy = 30, k.cx = 19.5, k.cy = 14.5;
+  const size_t n = size_t(k.width) * size_t(k.height);
+  SemanticFrame made;
+  made.ids.assign(n, 0);
+  made.classes = {{5, "box"}, {7, "person"}};
+  made.age_frames = 2;
+  made.repeated = true;
+  for (int y = 8; y < 16; ++y)
+    for (int x = 10; x < 20; ++x) made.ids[size_t(y * k.width + x)] = 5;
+  for (int y = 0; y < k.height; ++y) made.ids[size_t(y * k.width + k.width - 1)] = 7;  // the right column
+  std::vector<float> depth_m(n, 2.0f);
+  depth_m[size_t(10 * k.width + 12)] = 0.0f;  // no reading inside the box
+
+  const SemanticFrame same = slam::carry_semantic_frame(made, depth_m.data(), k, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(same.classes, made.classes);
+  EXPECT_EQ(same.age_frames, 2);
+  EXPECT_TRUE(same.repeated);
+  for (size_t i = 0; i < n; ++i) EXPECT_EQ(same.ids[i], depth_m[i] > 0 ? made.ids[i] : 0) << i;
+
+  // The current camera stands 0.2 m to the right of the one the masks were made from: a point
+  // seen at column u now was at column u + 30 * 0.2 / 2 = u + 3 then.
+  Eigen::Isometry3d T_made_current = Eigen::Isometry3d::Identity();
+  T_made_current.translation() = Eigen::Vector3d(0.2, 0, 0);
+  const SemanticFrame moved = slam::carry_semantic_frame(made, depth_m.data(), k, T_made_current);
+  for (int y = 0; y < k.height; ++y)
+    for (int x = 0; x < k.width; ++x) {
+      const size_t i = size_t(y * k.width + x);
+      const uint16_t expected = depth_m[i] <= 0 || x + 3 >= k.width ? 0 : made.ids[size_t(y * k.width + x + 3)];
+      EXPECT_EQ(moved.ids[i], expected) << x << "," << y;
+    }
+  EXPECT_EQ(moved.ids[size_t(8 * k.width + 7)], 5);         // the box's left edge moved from 10 to 7
+  EXPECT_EQ(moved.ids[size_t(8 * k.width + 16)], 5);        // its right edge from 19 to 16
+  EXPECT_EQ(moved.ids[size_t(8 * k.width + 17)], 0);
+  EXPECT_EQ(moved.ids[size_t(3 * k.width + k.width - 4)], 7);  // the person column moved to 36
+  EXPECT_EQ(moved.ids[size_t(3 * k.width + k.width - 1)], 0);  // not seen by the earlier camera
+
+  SemanticFrame wrong_size = made;
+  wrong_size.ids.pop_back();
+  EXPECT_THROW(slam::carry_semantic_frame(wrong_size, depth_m.data(), k, T_made_current), Error);
+}
+
 TEST(SemanticMasks, ClassVotesGiveTheMostVotedClassAndItsShare) {
   slam::ClassVotes v;
   EXPECT_FALSE(v.best());
