@@ -237,7 +237,7 @@ Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, c
 }
 
 // One segmentation mode with one source of instance masks over `frames`, as `cofusion run` does
-// it (the detector asynchronous, each frame given the previous frame's detection).
+// it (the detector asynchronous, each frame given the latest detection, made from an earlier frame).
 Json bench_semantic_mode(gpu::Context& ctx, const std::vector<Frame>& frames, const OdometryPeerFigure& peer,
                          slam::SegmentationMode mode, const std::string& masks, int detector_every = 1) {
   slam::CoFusionParams params = PipelineConfig{}.cofusion();

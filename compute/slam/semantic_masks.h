@@ -1,7 +1,7 @@
 #pragma once
 // Semantic instance masks in the pipeline (issue 19): per-pixel instance ids with a class per id,
 // from a dataset's masks or from the detector (compute/semantic), given to CoFusion::process()
-// with the frame they were made from.
+// with the frame they were made from or a later one (SemanticFrame::age_frames).
 //   - Excluded classes (SemanticParams::exclude, default "person"): their pixels are mover pixels
 //     in every segmentation mode: never fused into any model, never used to track the camera or
 //     an object, never spawning a model.
@@ -30,8 +30,9 @@ struct SemanticFrame {
   // it is neither excluded nor modelled.
   std::map<uint16_t, std::string> classes;
   // Processed frames between the frame the masks were made from and the frame they are given with
-  // (0: made from it; the detector's come from an earlier frame). CoFusion carries older masks to
-  // the frame by the camera's motion since (carry_semantic_frame).
+  // (0: made from it; the detector's come from an earlier frame). CoFusion carries an older
+  // frame's instances to the frame by the camera's tracked motion since (carry_semantic_frame);
+  // its excluded pixels stay where the masks saw them.
   int age_frames = 0;
   // Whether these masks were given with an earlier frame already (a detection carried on to the
   // frames until the next one): they still exclude and join, but count no new sighting towards a
