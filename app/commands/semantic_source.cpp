@@ -79,14 +79,13 @@ const slam::SemanticFrame* AsyncDetector::for_frame() {
   if (!running_.load(std::memory_order_acquire) && result_call_ > current_call_) {
     current_ = result_;
     current_call_ = result_call_;
-    current_.repeated = false;
-    current_.age_frames = 0;
-  } else if (current_.age_frames > 0) {
-    current_.repeated = true;
+    current_handed_out_ = false;
   }
   if (current_call_ < 0) return nullptr;
   current_.age_frames = calls_ - current_call_;
   if (current_.age_frames < 1 || current_.age_frames > max_age_frames_) return nullptr;
+  current_.repeated = current_handed_out_;
+  current_handed_out_ = true;
   ++used_;
   return &current_;
 }

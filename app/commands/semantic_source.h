@@ -76,6 +76,7 @@ class AsyncDetector {
   // The result handed out (a copy: the task may overwrite result_ meanwhile).
   slam::SemanticFrame current_;
   int current_call_ = -1;
+  bool current_handed_out_ = false;  // current_ was returned for an earlier frame
 };
 
 // Where the instance masks come from when --semantic-source does not say, decided at the first
@@ -92,8 +93,8 @@ class FrameMasks {
              int detector_every);
 
   // This frame's masks (null: none). The detector gives its latest detection made from an earlier
-  // frame (AsyncDetector::for_frame), then starts one of this frame (when none is running); with wait_for_detections (recordings)
-  // the next frame waits for it, a live camera never does. Throws cofusion::Error for a frame
+  // frame (AsyncDetector::for_frame), then starts one of this frame (when none is running); with
+  // wait_for_detections (recordings) the next frame waits for it, a live camera never does. Throws cofusion::Error for a frame
   // without masks when the source is `masks`.
   const slam::SemanticFrame* for_frame(const Frame& frame, const cv::Mat& rgb, const cv::Mat& depth_m);
 

@@ -457,7 +457,9 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   out.camera_state = camera;
   const Clock::time_point gpu_end = Clock::now();
   update_poses(active, out);
-  if (semantic_ && camera != CameraState::kLost) semantic_ = carried_to_this_frame(*semantic_, depth_m);
+  // Motion mode uses instances for class votes only: no pass over the image for them.
+  if (semantic_ && camera != CameraState::kLost && params_.semantic.mode != SegmentationMode::kMotion)
+    semantic_ = carried_to_this_frame(*semantic_, depth_m);
 
   std::vector<int> spawned_slots;
   cpu_jobs.wait();

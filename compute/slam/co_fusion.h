@@ -321,9 +321,10 @@ class CoFusion {
 
   // Processes the next frame: `depth_m` width*height floats in metres (0/NaN = no reading), `rgb`
   // width*height*3 bytes, `semantic` the frame's instance masks when there are any (made from this
-  // frame or, SemanticFrame::age_frames, from an earlier one: then its instances are carried to
-  // this frame by the camera's tracked motion since; see semantic_masks.h): pixels of excluded
-  // classes are mover pixels (no fusion, no tracking, no spawning). Masks need motion_segmentation (the label map that keeps them out).
+  // frame or, SemanticFrame::age_frames, from an earlier one: then, in semantic/both modes, its
+  // instances are carried to this frame by the camera's tracked motion since; see
+  // semantic_masks.h): pixels of excluded classes are mover pixels (no fusion, no tracking, no
+  // spawning). Masks need motion_segmentation (the label map that keeps them out).
   CoFusionFrame process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic = nullptr);
   // The input skipped frames since the last process() (unreadable, or without depth): the camera
   // may have moved further than tracking from the last pose reaches, so the next frame is

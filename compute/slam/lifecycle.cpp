@@ -364,8 +364,8 @@ void CoFusion::apply_instances(std::vector<uint8_t>& slots, std::vector<int>& sl
 }
 
 // The instances no model covers (apply_instances): each one seen in confirm_frames consecutive
-// frames (repeated masks are no new sighting: SemanticFrame::repeated) re-activates an inactive model of its class there (reactivate_at_instance) or spawns a
-// model with no probation (it need not move), resting where the background explains it
+// frames (repeated masks are no new sighting: SemanticFrame::repeated) re-activates an inactive
+// model of its class there (reactivate_at_instance) or spawns a model with no probation (it need not move), resting where the background explains it
 // (SemanticParams::resting_max_unexplained_fraction); else its surfels leave the older models as a
 // motion spawn's do, and its first tracking starts from its centroid's step over the last frame.
 void CoFusion::spawn_instances(const std::vector<const MaskInstance*>& uncovered, std::vector<uint8_t>& slots,

@@ -30,9 +30,9 @@ struct SemanticFrame {
   // it is neither excluded nor modelled.
   std::map<uint16_t, std::string> classes;
   // Processed frames between the frame the masks were made from and the frame they are given with
-  // (0: made from it; the detector's come from an earlier frame). CoFusion carries an older
-  // frame's instances to the frame by the camera's tracked motion since (carry_semantic_frame);
-  // its excluded pixels stay where the masks saw them.
+  // (0: made from it; the detector's come from an earlier frame). In semantic/both modes CoFusion
+  // carries an older frame's instances to the frame by the camera's tracked motion since
+  // (carry_semantic_frame); its excluded pixels stay where the masks saw them.
   int age_frames = 0;
   // Whether these masks were given with an earlier frame already (a detection carried on to the
   // frames until the next one): they still exclude and join, but count no new sighting towards a
