@@ -8,10 +8,15 @@
 //      within support_plane_distance_m of it are "support", never object;
 //   2. the seed: among the valid, non-support pixels of the box's central part (seed_fraction of
 //      its width and height), the one whose depth is the median of them;
-//   3. region growing from the seed over 4-neighbours inside the box that are valid, not support,
+//   3. region growing from the seed over 4-neighbours around the box that are valid, not support,
 //      and whose depth differs from the pixel they are reached from by less than
 //      max_relative_depth_step x its depth (a depth discontinuity stops the growth, so the
-//      background behind the object and things in front of it are cut off);
+//      background behind the object and things in front of it are cut off). Then the concave cut:
+//      where the surface folds concavely (normals turning towards each other by more than
+//      fold_angle_deg), the grown region is split into parts, and a part that reaches out of the
+//      box (a wall the object leans on, a support that is not one plane, a neighbouring object) is
+//      dropped; parts within the box stay (a chair's seat and backrest). Only what lies in the box
+//      is kept;
 //   4. pixels already claimed by a better-scoring instance stay with it; an instance left with
 //      fewer than min_pixels or less than min_box_fraction of its box is dropped.
 // People (class 0) come from the person segmenter's probability instead when one is given: the
@@ -44,6 +49,15 @@ struct InstanceMaskParams {
   int ransac_max_points = 3000;    // band points used (an even subsample when there are more)
   uint32_t seed = 1;               // RANSAC's random generator (runs are deterministic)
   float seed_fraction = 0.3f;      // central part of the box the region grows from (of width/height)
+  // The concave cut of step 3: normals are taken from the depth averaged over a square of
+  // normal_window_px (pixels) and differences over fold_probe_px to either side; a fold is where
+  // the normals fold_probe_px to either side differ by more than fold_angle_deg (degrees; 0 turns
+  // the cut off) and face each other. A part of the grown region between folds is dropped when more
+  // than fold_part_outside_fraction of its pixels lie outside the box (in the band of step 1).
+  float fold_angle_deg = 40.f;
+  int fold_probe_px = 4;
+  int normal_window_px = 5;
+  float fold_part_outside_fraction = 0.25f;
   int min_pixels = 50;             // smaller instances are dropped
   float min_box_fraction = 0.05f;  // instances covering less of their box are dropped
   float person_probability = 0.5f; // person-segmenter threshold (0..1)

@@ -1,6 +1,7 @@
 // Boxes + depth -> instance masks on synthetic depth: a box standing on a tilted plane (the mask
 // covers the box, not the plane it stands on nor the plane behind it), a duplicate detection, a
-// person from the segmenter's probability, bad input.
+// person from the segmenter's probability, a wall the object touches (the concave cut), an
+// object with a concave fold of its own, bad input.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -126,6 +127,63 @@ TEST(InstanceMasks, ADuplicateDetectionOfTheSameObjectIsDropped) {
   const auto m = instance_masks({detection(67, "cell_phone", 0.3f, box), detection(28, "suitcase", 0.8f, box)},
                                 s.depth_m, k, {});
   expect_box_not_floor(s, m, box, 0.9);  // the better one wins, the other has no pixels left
+}
+
+// A box face (constant depth) standing on the floor and touching a wall on its right: the wall
+// (a vertical plane turned 56 degrees from the face, z = face - 1.5 (X - X_contact), nearer towards
+// the image's right) meets the face at its right edge without a depth step. The floor is the
+// support plane; only the concave fold where face and wall meet separates the wall's pixels in
+// the box from the object.
+Scene box_in_a_corner(const Intrinsics& k, cv::Rect& wall_in_box) {
+  Scene s = box_on_floor(k);
+  const double face = s.depth_m.at<float>(s.object.y, s.object.x), slope = 1.5;
+  const int contact = s.object.x + s.object.width;  // first wall column
+  const double x_contact = face * (contact - k.cx) / k.fx;
+  for (int y = 0; y < k.height; ++y)
+    for (int x = contact; x < k.width; ++x) {
+      const float wall = static_cast<float>((face + slope * x_contact) / (1.0 + slope * (x - k.cx) / k.fx));
+      s.depth_m.at<float>(y, x) = std::min(wall, floor_depth(y, k));
+    }
+  wall_in_box = cv::Rect(contact, s.object.y, 6, s.object.height);
+  return s;
+}
+
+TEST(InstanceMasks, AWallTheObjectTouchesIsCutAtTheConcaveFold) {
+  const Intrinsics k = small_camera();
+  cv::Rect wall;
+  const Scene s = box_in_a_corner(k, wall);
+  const cv::Rect box(54, 34, 52, 50);  // 6 columns of wall inside on the right
+  const auto on_wall = [&](int x, int y) { return wall.contains({x, y}); };
+  const auto on_object = [&](int x, int y) { return s.object.contains({x, y}); };
+  const auto m = instance_masks({detection(28, "suitcase", 0.8f, box)}, s.depth_m, k, {});
+  ASSERT_EQ(m.instances.size(), 1u);
+  EXPECT_GE(share_with_id(m.ids, box, on_object, 1), 0.9);
+  EXPECT_LE(share_with_id(m.ids, box, on_wall, 1), 0.2) << "at most the fold's own pixels of the wall";
+  InstanceMaskParams no_cut;
+  no_cut.fold_angle_deg = 0;
+  const auto uncut = instance_masks({detection(28, "suitcase", 0.8f, box)}, s.depth_m, k, no_cut);
+  ASSERT_EQ(uncut.instances.size(), 1u);
+  EXPECT_GE(share_with_id(uncut.ids, box, on_wall, 1), 0.9) << "without the cut the wall joins the object";
+}
+
+TEST(InstanceMasks, AnObjectsOwnConcaveFoldInsideTheBoxKeepsItWhole) {
+  // A chair: an upright backrest (constant depth 1.4 m) and a horizontal seat in front of it at
+  // its foot (y = 0.3 m below the camera, 0.4 m deep), with the floor far behind; the seat meets
+  // the backrest at a concave fold, both inside the box.
+  const Intrinsics k = small_camera();
+  cv::Mat depth(k.height, k.width, CV_32FC1, cv::Scalar(4.f));
+  const float back = 1.4f, seat_y = 0.3f;
+  const int seat_top = static_cast<int>(std::ceil(k.cy + k.fy * seat_y / back));           // row 92
+  const int seat_bottom = static_cast<int>(std::floor(k.cy + k.fy * seat_y / (back - 0.4f)));  // row 104
+  const cv::Rect backrest(55, 30, 50, seat_top - 30), seat(55, seat_top, 50, seat_bottom - seat_top + 1);
+  depth(backrest).setTo(back);
+  for (int y = seat.y; y < seat.y + seat.height; ++y)
+    depth(cv::Rect(seat.x, y, seat.width, 1)).setTo(static_cast<float>(seat_y / ((y - k.cy) / k.fy)));
+  const cv::Rect box(50, 25, 60, 85);
+  const auto m = instance_masks({detection(56, "chair", 0.8f, box)}, depth, k, {});
+  ASSERT_EQ(m.instances.size(), 1u);
+  EXPECT_GE(share_with_id(m.ids, box, [&](int x, int y) { return backrest.contains({x, y}); }, 1), 0.9);
+  EXPECT_GE(share_with_id(m.ids, box, [&](int x, int y) { return seat.contains({x, y}); }, 1), 0.9);
 }
 
 TEST(InstanceMasks, PeopleComeFromThePersonProbability) {
