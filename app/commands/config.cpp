@@ -197,6 +197,19 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   if (c.max_active_models < 1 || c.max_active_models > 31) throw Error(where + ".max_active_models: must be 1..31");
   if (c.deactivate_after_frames < 1 || c.probation_frames < 1 || c.merge_window_frames < 1)
     throw Error(where + ": frame counts must be at least 1");
+  s.section("spawn_rigidity", where + ".spawn_rigidity", [&](Section& q) {
+    slam::RegionRigidityParams& r = c.spawn_rigidity;
+    q.field("enabled", r.enabled)
+        .field("step", r.step)
+        .field("iterations", r.iterations)
+        .field("association_m", r.association_m)
+        .field("huber_m", r.huber_m)
+        .field("min_aligned_fraction", r.min_aligned_fraction)
+        .field("normal_max_depth_step_m", r.normal_max_depth_step_m);
+    if (r.step < 1 || r.iterations < 0 || !(r.association_m > 0) || !(r.huber_m > 0) ||
+        !(r.min_aligned_fraction >= 0 && r.min_aligned_fraction <= 1) || !(r.normal_max_depth_step_m > 0))
+      throw Error(q.where() + ": step must be >= 1, iterations >= 0, distances > 0 and min_aligned_fraction in [0, 1]");
+  });
 }
 
 void read_segmentation(Section& s, segmentation::MotionSegmentationParams& c) {

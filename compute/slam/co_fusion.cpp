@@ -777,7 +777,7 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
     recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
   }
-  if (params_.camera_check.enabled) {
+  if (params_.camera_check.enabled || params_.lifecycle.spawn_rigidity.enabled) {
     previous_depth_m_.assign(depth_m, depth_m + n);
   }
   camera_history_.push_back(camera == CameraState::kLost ? std::nullopt : std::optional(T_world_camera_));

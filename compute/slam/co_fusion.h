@@ -32,6 +32,7 @@
 #include "slam/dense_slam.h"
 #include "slam/keyframe_database.h"
 #include "slam/motion_kernels.h"
+#include "slam/region_rigidity.h"
 #include "slam/semantic_masks.h"
 
 namespace cofusion::slam {
@@ -181,6 +182,10 @@ struct LifecycleParams {
   // them (not even the background when outliers are many), and they spawn no model. A mover that
   // stops moving is explained by the background again and leaves the regions.
   double mover_min_overlap = 0.3;
+  // A region spawns a model only when it moved as one rigid body since the previous frame
+  // (region_rigidity.h): a person entering the view, before the detector or the person segmenter
+  // sees them, is a region but no rigid body. A region that fails stays a candidate.
+  RegionRigidityParams spawn_rigidity;
 };
 
 // Camera tracking loss and relocalisation. A frame whose camera tracking fails is lost: its pose is
@@ -382,6 +387,7 @@ class CoFusion {
       size_t region;  // index into regions
       int slot;       // the free slot it takes
       std::optional<Eigen::Vector3d> centroid, previous_centroid;  // camera frame, this and last frame
+      std::optional<double> rigid_fraction;  // LifecycleParams::spawn_rigidity's measure, when it ran
     };
     std::vector<std::vector<size_t>> regions;
     std::vector<Spawn> spawns;
@@ -396,7 +402,10 @@ class CoFusion {
                                                    std::vector<uint8_t>& slots);
   std::optional<Eigen::Vector3d> region_centroid(const std::vector<size_t>& pixels, const float* depth_m) const;
   SpawnPlan plan_spawns(const segmentation::SegmentationResult& seg, const float* depth_m, uint8_t outlier,
-                        const Model& bg, std::vector<uint8_t>& slots);
+                        const Model& bg, std::vector<uint8_t>& slots, CoFusionFrame& out);
+  std::optional<double> rigid_fraction(const std::vector<size_t>& pixels, const float* depth_m,
+                                       const std::optional<Eigen::Vector3d>& centroid,
+                                       const std::optional<Eigen::Vector3d>& previous_centroid) const;
   void spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector<size_t>& pixels,
                            const std::vector<int>& slot_pixels, CoFusionFrame& out, std::vector<int>& spawned_slots);
   void update_presence(const std::vector<int>& slot_pixels, CoFusionFrame& out);
@@ -435,8 +444,8 @@ class CoFusion {
   MotionKernels motion_;
   segmentation::MotionSegmenter segmenter_;
   kernels::FramePyramid live_;
-  // The previous frame's depth (CameraCheckParams; kept only when the check is on) and the
-  // depth_fit of the camera motion the last checked frame took.
+  // The previous frame's depth (kept when CameraCheckParams or LifecycleParams::spawn_rigidity is
+  // on) and the depth_fit of the camera motion the last checked frame took.
   std::vector<float> previous_depth_m_;
   double last_camera_fit_ = 0;
   // The last frame's refused tracked pose (T_world_camera) and how many refused frames in a row

@@ -38,7 +38,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   std::vector<uint8_t> slots = slots_from_segmentation(seg, costs, depth_m, order, out);
   merge_static_newcomers(order, slots, out);
   merge_comoving(order, slots, out);
-  SpawnPlan plan = plan_spawns(seg, depth_m, static_cast<uint8_t>(order.size()), *order.front(), slots);
+  SpawnPlan plan = plan_spawns(seg, depth_m, static_cast<uint8_t>(order.size()), *order.front(), slots, out);
   // Pixels per slot, kept up to date as the new regions take their (free) slots; an object model
   // whose slot has none lost its object in this segmentation.
   std::vector<int> slot_pixels(kSlots, 0);
@@ -194,10 +194,12 @@ std::optional<Eigen::Vector3d> CoFusion::region_centroid(const std::vector<size_
 
 // Which outlier regions spawn a model: one that was a candidate in the previous frame too
 // (transient outliers, a blurred frame or a depth glitch, spawn nothing), while the camera is
-// steady, within the active-model limit. The others are this frame's candidates for the next.
+// steady, within the active-model limit, and that moved as one rigid body since the previous frame
+// (LifecycleParams::spawn_rigidity; a person entering the view does not). The others are this frame's candidates for the next.
 // Several objects starting to move at once each spawn.
 CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult& seg, const float* depth_m,
-                                          uint8_t outlier, const Model& bg, std::vector<uint8_t>& slots) {
+                                          uint8_t outlier, const Model& bg, std::vector<uint8_t>& slots,
+                                          CoFusionFrame& out) {
   const LifecycleParams& p = params_.lifecycle;
   const size_t n = slots.size();
   SpawnPlan plan;
@@ -226,15 +228,49 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
       if (overlap[k] > overlap[best_previous]) best_previous = k;
     }
     const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(pixels.size());
-    if (frame_ >= p.warmup_frames && camera_steady && persistent &&
-        active_count + int(plan.spawns.size()) < p.max_active_models) {
-      plan.spawns.push_back({r, -1, centroid, best_previous > 0 ? previous_centroids[best_previous - 1] : std::nullopt});
-    } else if (spawn_candidate_centroids_.size() < 254) {  // a candidate for the next frame
+    const std::optional<Eigen::Vector3d> previous_centroid =
+        best_previous > 0 ? previous_centroids[best_previous - 1] : std::nullopt;
+    const bool eligible = frame_ >= p.warmup_frames && camera_steady && persistent &&
+                          active_count + int(plan.spawns.size()) < p.max_active_models;
+    const std::optional<double> rigid =
+        eligible ? rigid_fraction(pixels, depth_m, centroid, previous_centroid) : std::nullopt;
+    if (eligible && (!rigid || *rigid >= p.spawn_rigidity.min_aligned_fraction)) {
+      plan.spawns.push_back({r, -1, centroid, previous_centroid, rigid});
+      continue;
+    }
+    if (eligible) {  // it failed the rigidity check
+      char what[160];
+      std::snprintf(what, sizeof what, "a region of %.1f%% of the image spawned nothing: %.0f%% of it moved rigidly",
+                    100.0 * double(pixels.size()) / double(n), 100.0 * *rigid);
+      out.events.push_back("frame " + std::to_string(frame_) + ": " + what);
+    }
+    if (spawn_candidate_centroids_.size() < 254) {  // a candidate for the next frame
       spawn_candidate_centroids_.push_back(centroid);
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidate_centroids_.size());
     }
   }
   return plan;
+}
+
+// LifecycleParams::spawn_rigidity: the fraction of the region that moved as one rigid body since
+// the previous frame, from the camera's motion and the region's centroid step (when the region was
+// a candidate there too and the step is plausible, spawn_max_velocity_guess_m); nullopt when the
+// check is off or the previous frame's depth or pose is unknown.
+std::optional<double> CoFusion::rigid_fraction(const std::vector<size_t>& pixels, const float* depth_m,
+                                               const std::optional<Eigen::Vector3d>& centroid,
+                                               const std::optional<Eigen::Vector3d>& previous_centroid) const {
+  const LifecycleParams& p = params_.lifecycle;
+  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
+  if (!p.spawn_rigidity.enabled || p.spawn_rigidity.min_aligned_fraction <= 0 || previous_depth_m_.size() != n ||
+      camera_history_.empty() || !camera_history_.back())
+    return std::nullopt;
+  Eigen::Isometry3d T_previous_current = camera_history_.back()->inverse() * T_world_camera_;
+  if (centroid && previous_centroid) {
+    const Eigen::Vector3d step = *previous_centroid - T_previous_current * *centroid;
+    if (step.norm() <= p.spawn_max_velocity_guess_m) T_previous_current.pretranslate(step);
+  }
+  return region_rigidity(depth_m, previous_depth_m_.data(), intrinsics_, pixels, T_previous_current, p.spawn_rigidity)
+      .aligned_fraction();
 }
 
 // A spawning region first re-finds an object model that lost every pixel this frame (its tracking
@@ -286,8 +322,10 @@ void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector
   m.last_motion = velocity_guess;
   m.guess_from_centroid_step = true;
   spawned_slots.push_back(sp.slot);
+  char rigid[48] = "";
+  if (sp.rigid_fraction) std::snprintf(rigid, sizeof rigid, ", %.0f%% of it moved rigidly", 100.0 * *sp.rigid_fraction);
   out.events.push_back("frame " + std::to_string(frame_) + ": spawned model " + std::to_string(m.id) + " (" + share +
-                       " of the image)");
+                       " of the image" + rigid + ")");
 }
 
 // Pixel counts, where each object was last seen well, absence and retirement.
