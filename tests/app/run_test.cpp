@@ -513,6 +513,24 @@ TEST(RunCommand, SemanticConfigGroupIsReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
+TEST(RunCommand, SpawnRigidityConfigIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  std::ofstream(dir / "config.json") << R"({"lifecycle": {"spawn_rigidity": {"min_aligned_fraction": 1.5}}})";
+  const Result r = run_cofusion("run --headless --config " + (dir / "config.json").string() + " --output " +
+                                (dir / "out").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("lifecycle.spawn_rigidity")) << r.output;
+  std::ofstream(dir / "typo.json") << R"({"lifecycle": {"spawn_rigidity": {"min_alinged_fraction": 0.5}}})";
+  const Result typo = run_cofusion("run --headless --config " + (dir / "typo.json").string() + " --output " +
+                                   (dir / "out").string());
+  EXPECT_NE(typo.exit_code, 0);
+  EXPECT_THAT(typo.output, HasSubstr("min_alinged_fraction")) << typo.output;
+  std::ofstream(dir / "ok.json") << R"({"lifecycle": {"spawn_rigidity": {"enabled": false, "association_m": 0.05}}})";
+  const Result ok = run_cofusion("run --headless --max-frames 3 --config " + (dir / "ok.json").string() + " --output " +
+                                 (dir / "out").string());
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 // --screenshot offscreen (headless) and from the window under a virtual X server: a PNG of the
 // final view, showing the model (not just the background colour).
 void expect_screenshot(const fs::path& png) {
