@@ -525,15 +525,25 @@ std::vector<uint8_t> CoFusion::begin_semantic_frame(const SemanticFrame* semanti
 }
 
 // Masks made from an earlier frame, carried to this one by the camera's motion since (this frame's
-// tracked pose). Masks older than the pose history, or from a frame where the camera was lost, are
-// taken as they are.
+// tracked pose). Masks from the previous frame follow the objects that moved since, too: a pixel
+// the previous frame gave to a tracked object model is carried by that model's motion (older masks
+// by the camera's alone: the models' motions are kept for one frame). Masks older than the pose
+// history, or from a frame where the camera was lost, are taken as they are.
 const SemanticFrame* CoFusion::carried_to_this_frame(const SemanticFrame& semantic, const float* depth_m) {
   const int age = semantic.age_frames;
   if (age <= 0 || age > int(camera_history_.size())) return &semantic;
   const std::optional<Eigen::Isometry3d>& T_world_made = camera_history_[camera_history_.size() - size_t(age)];
   if (!T_world_made) return &semantic;
   const Eigen::Isometry3d T_made_current = T_world_made->inverse() * T_world_camera_;
-  carried_semantic_ = carry_semantic_frame(semantic, depth_m, intrinsics_, T_made_current);
+  std::vector<SlotMotion> object_motions;
+  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
+  if (age == 1 && slots_.size() == n)
+    for (const auto& m : models_)
+      if (m->id != 0 && m->state == ModelState::kActive && m->slot >= 0 && m->tracked && !m->tracking.failed &&
+          !m->resting)
+        object_motions.push_back({uint8_t(m->slot), m->motion});
+  carried_semantic_ = carry_semantic_frame(semantic, depth_m, intrinsics_, T_made_current,
+                                           object_motions.empty() ? std::vector<uint8_t>{} : slots_, object_motions);
   return &carried_semantic_;
 }
 

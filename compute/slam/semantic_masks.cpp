@@ -31,23 +31,28 @@ void check_semantic_frame(const SemanticFrame& frame, size_t pixels) {
 }
 
 SemanticFrame carry_semantic_frame(const SemanticFrame& made, const float* depth_m, const Intrinsics& intrinsics,
-                                   const Eigen::Isometry3d& T_made_current) {
+                                   const Eigen::Isometry3d& T_made_current, const std::vector<uint8_t>& owner,
+                                   const std::vector<SlotMotion>& object_motions) {
   const int width = intrinsics.width, height = intrinsics.height;
   check_semantic_frame(made, size_t(width) * size_t(height));
+  if (!owner.empty() && owner.size() != made.ids.size())
+    throw Error("carry_semantic_frame: the owner map has " + std::to_string(owner.size()) + " pixels, the masks " +
+                std::to_string(made.ids.size()));
+  // Per slot the motion its pixels follow (the camera's where no object's is given).
+  std::vector<const Eigen::Isometry3d*> motion_of(256, &T_made_current);
+  for (const SlotMotion& m : object_motions) motion_of[m.slot] = &m.T_made_current;
   SemanticFrame carried;
   carried.classes = made.classes;
   carried.age_frames = made.age_frames;
   carried.repeated = made.repeated;
   carried.ids.assign(made.ids.size(), 0);
-  const Eigen::Matrix3d R = T_made_current.linear();
-  const Eigen::Vector3d t = T_made_current.translation();
   for (int v = 0; v < height; ++v)
     for (int u = 0; u < width; ++u) {
       const size_t i = size_t(v) * size_t(width) + size_t(u);
       const double z = depth_m[i];
       if (!(z > 0)) continue;
       const Eigen::Vector3d p_current((u - intrinsics.cx) / intrinsics.fx * z, (v - intrinsics.cy) / intrinsics.fy * z, z);
-      const Eigen::Vector3d p_made = R * p_current + t;
+      const Eigen::Vector3d p_made = *motion_of[owner.empty() ? 0 : owner[i]] * p_current;
       if (!(p_made.z() > 0)) continue;
       const double x = intrinsics.fx * p_made.x() / p_made.z() + intrinsics.cx;
       const double y = intrinsics.fy * p_made.y() / p_made.z() + intrinsics.cy;

@@ -90,13 +90,24 @@ void check_semantic_frame(const SemanticFrame& frame, size_t pixels);
 bool is_excluded_class(const SemanticParams& params, const std::string& class_name);
 bool is_modelled_class(const SemanticParams& params, const std::string& class_name);
 
+// An object model's own motion since the masks were made: T_made_current of the points of the
+// model with label slot `slot` (its camera-relative motion, as the background's is the camera's).
+struct SlotMotion {
+  uint8_t slot = 0;
+  Eigen::Isometry3d T_made_current = Eigen::Isometry3d::Identity();
+};
+
 // `made`'s masks carried to the current frame (a backward warp): each pixel of the current frame
 // with depth is moved into the camera the masks were made from (T_made_current, metres) and takes
 // the id of the pixel it lands on (nearest); pixels without depth or landing outside that image get
-// 0. This follows the camera's motion since; a mover's own motion is not followed (that is what
-// SemanticParams::exclude_margin_px and the motion segmentation are for). Classes are copied.
+// 0. This follows the camera's motion since. Where `owner` (a slot per pixel, e.g. the previous
+// frame's labels; empty: none) names a slot of `object_motions`, the pixel follows that object's
+// own motion instead, so the instance of an object that moved stays on it. A mover that is no
+// model is not followed (that is what SemanticParams::exclude_margin_px and the motion
+// segmentation are for). Classes are copied.
 SemanticFrame carry_semantic_frame(const SemanticFrame& made, const float* depth_m, const Intrinsics& intrinsics,
-                                   const Eigen::Isometry3d& T_made_current);
+                                   const Eigen::Isometry3d& T_made_current, const std::vector<uint8_t>& owner = {},
+                                   const std::vector<SlotMotion>& object_motions = {});
 
 // Per pixel 1 where the pixel's instance has an excluded class, else 0. Returns the count of such
 // pixels (0: `excluded` is left empty).

@@ -120,6 +120,45 @@ TEST(SemanticMasks, CarriedMasksFollowTheCameraMotion) {
   EXPECT_THROW(slam::carry_semantic_frame(wrong_size, depth_m.data(), k, T_made_current), Error);
 }
 
+// Masks from the previous frame follow an object model that moved since: where the previous
+// labels give a pixel to the object's slot, its own motion carries it; elsewhere the camera's.
+TEST(SemanticMasks, CarriedMasksFollowAnObjectsOwnMotion) {
+  Intrinsics k;
+  k.width = 40, k.height = 30, k.fx = k.fy = 30, k.cx = 19.5, k.cy = 14.5;
+  const size_t n = size_t(k.width) * size_t(k.height);
+  SemanticFrame made;
+  made.ids.assign(n, 0);
+  made.classes = {{5, "box"}, {6, "cup"}};
+  made.age_frames = 1;
+  for (int y = 8; y < 16; ++y)
+    for (int x = 10; x < 20; ++x) made.ids[size_t(y * k.width + x)] = 5;  // the box, moving right
+  for (int y = 20; y < 24; ++y)
+    for (int x = 30; x < 34; ++x) made.ids[size_t(y * k.width + x)] = 6;  // a cup on the background
+  const std::vector<float> depth_m(n, 2.0f);
+  // The previous labels: slot 3 around the box (its model's footprint), the background elsewhere.
+  std::vector<uint8_t> owner(n, 0);
+  for (int y = 6; y < 18; ++y)
+    for (int x = 8; x < 26; ++x) owner[size_t(y * k.width + x)] = 3;
+  // The box moved 0.2 m right (3 pixels at 2 m): its point at column u now was at u - 3 then.
+  Eigen::Isometry3d T_box = Eigen::Isometry3d::Identity();
+  T_box.translation() = Eigen::Vector3d(-0.2, 0, 0);
+  const SemanticFrame carried =
+      slam::carry_semantic_frame(made, depth_m.data(), k, Eigen::Isometry3d::Identity(), owner, {{3, T_box}});
+  const auto id_at = [&](int x, int y) { return carried.ids[size_t(y * k.width + x)]; };
+  EXPECT_EQ(id_at(12, 10), 0) << "the box's old left edge is empty now";
+  EXPECT_EQ(id_at(13, 10), 5);
+  EXPECT_EQ(id_at(22, 10), 5) << "its right edge moved from 19 to 22";
+  EXPECT_EQ(id_at(23, 10), 0);
+  EXPECT_EQ(id_at(30, 20), 6) << "the background's instance follows the camera (still)";
+  EXPECT_EQ(id_at(33, 23), 6);
+  // Without the owner map everything follows the camera, as before.
+  const SemanticFrame still = slam::carry_semantic_frame(made, depth_m.data(), k, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(still.ids, made.ids);
+  EXPECT_THROW(slam::carry_semantic_frame(made, depth_m.data(), k, Eigen::Isometry3d::Identity(),
+                                          std::vector<uint8_t>(n - 1, 0), {{3, T_box}}),
+               Error);
+}
+
 TEST(SemanticMasks, ClassVotesGiveTheMostVotedClassAndItsShare) {
   slam::ClassVotes v;
   EXPECT_FALSE(v.best());
