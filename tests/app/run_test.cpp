@@ -224,13 +224,13 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 
 // Issue "Real dynamic scenes" on the Bonn RGB-D Dynamic `crowd` recording (464 frames, people
 // walking in front of a hand-held camera, detector masks), default settings: camera ATE <= 5 cm,
-// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 4.08 cm, 29
-// frames refused, 1 model from a person, dropped as a non-rigid mover 4 frames later: people the
-// detector misses, entering at the image's edge, fail the rigidity check at spawn). With
+// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 4.10 cm, 28
+// frames refused, no model from a person: people the detector misses, entering at the image's
+// edge, fail the rigidity check at spawn). With
 // `--segmentation both` no model for a person (the issue's bound; measured none), but the issue's
 // 3 cm is not met over the whole run: frames 300-400, where people cover 70-80 % of the view, tip
 // either way at the slightest change (3.6-7.3 cm for exclude_margin_px 6, 8 and 11 before the
-// concave cut of the masks, 4.0-5.5 cm since; docs/experiments.md): the whole run's bound, 6 cm,
+// concave cut of the masks, 3.9-5.5 cm since; docs/experiments.md): the whole run's bound, 6 cm,
 // is what those frames are seen to give, not the issue's. The first 300 frames (the office, chairs
 // and monitors as resting models, the first people walking through) are steady at 2.5-2.7 cm:
 // there the issue's 3 cm guards what resting instance models gained.
