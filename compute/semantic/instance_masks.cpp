@@ -114,23 +114,32 @@ cv::Mat usable_pixels(const cv::Mat& depth_m, const cv::Mat& valid, const cv::Re
   return usable;
 }
 
+// Calls visit(r) for each 4-neighbour r of `q` (coordinates in `area`, image coordinates) inside
+// the area whose depth differs from q's by less than max_relative_depth_step x q's depth.
+template <typename Visit>
+void for_each_continuous_neighbour(const cv::Mat& depth_m, const cv::Rect& area, cv::Point q, const InstanceMaskParams& p,
+                                   Visit&& visit) {
+  const float dq = depth_m.at<float>(area.y + q.y, area.x + q.x);
+  const cv::Point next[4] = {{q.x - 1, q.y}, {q.x + 1, q.y}, {q.x, q.y - 1}, {q.x, q.y + 1}};
+  for (const cv::Point& r : next) {
+    if (r.x < 0 || r.y < 0 || r.x >= area.width || r.y >= area.height) continue;
+    if (std::abs(depth_m.at<float>(area.y + r.y, area.x + r.x) - dq) >= p.max_relative_depth_step * dq) continue;
+    visit(r);
+  }
+}
+
 // Region growing (step 3) in `area` (image coordinates) from the pixels on `stack` (already set in
-// `mask`, CV_8UC1 of the area's size) over 4-neighbours that are usable and within
-// max_relative_depth_step x depth of the pixel they are reached from.
+// `mask`, CV_8UC1 of the area's size) over continuous-depth 4-neighbours that are usable.
 void grow(const cv::Mat& depth_m, const cv::Rect& area, const cv::Mat& usable, const InstanceMaskParams& p,
           std::vector<cv::Point> stack, cv::Mat& mask) {
   while (!stack.empty()) {
     const cv::Point q = stack.back();
     stack.pop_back();
-    const float dq = depth_m.at<float>(area.y + q.y, area.x + q.x);
-    const cv::Point next[4] = {{q.x - 1, q.y}, {q.x + 1, q.y}, {q.x, q.y - 1}, {q.x, q.y + 1}};
-    for (const cv::Point& r : next) {
-      if (r.x < 0 || r.y < 0 || r.x >= area.width || r.y >= area.height) continue;
-      if (mask.at<uint8_t>(r) || !usable.at<uint8_t>(r)) continue;
-      if (std::abs(depth_m.at<float>(area.y + r.y, area.x + r.x) - dq) >= p.max_relative_depth_step * dq) continue;
+    for_each_continuous_neighbour(depth_m, area, q, p, [&](cv::Point r) {
+      if (mask.at<uint8_t>(r) || !usable.at<uint8_t>(r)) return;
       mask.at<uint8_t>(r) = 255;
       stack.push_back(r);
-    }
+    });
   }
 }
 
@@ -219,17 +228,12 @@ void claim_by_nearest(const cv::Mat& depth_m, const cv::Rect& area, const cv::Ma
     for (int x = 0; x < area.width; ++x)
       if (labels.at<int>(y, x)) ring.emplace_back(x, y);
   while (!ring.empty()) {
-    for (const cv::Point& q : ring) {
-      const float dq = depth_m.at<float>(area.y + q.y, area.x + q.x);
-      const cv::Point next[4] = {{q.x - 1, q.y}, {q.x + 1, q.y}, {q.x, q.y - 1}, {q.x, q.y + 1}};
-      for (const cv::Point& r : next) {
-        if (r.x < 0 || r.y < 0 || r.x >= area.width || r.y >= area.height) continue;
-        if (labels.at<int>(r) || !region.at<uint8_t>(r)) continue;
-        if (std::abs(depth_m.at<float>(area.y + r.y, area.x + r.x) - dq) >= p.max_relative_depth_step * dq) continue;
+    for (const cv::Point& q : ring)
+      for_each_continuous_neighbour(depth_m, area, q, p, [&](cv::Point r) {
+        if (labels.at<int>(r) || !region.at<uint8_t>(r)) return;
         labels.at<int>(r) = labels.at<int>(q);
         next_ring.push_back(r);
-      }
-    }
+      });
     ring.swap(next_ring);
     next_ring.clear();
   }

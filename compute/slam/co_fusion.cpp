@@ -542,8 +542,9 @@ const SemanticFrame* CoFusion::carried_to_this_frame(const SemanticFrame& semant
       if (m->id != 0 && m->state == ModelState::kActive && m->slot >= 0 && m->tracked && !m->tracking.failed &&
           !m->resting)
         object_motions.push_back({uint8_t(m->slot), m->motion});
-  carried_semantic_ = carry_semantic_frame(semantic, depth_m, intrinsics_, T_made_current,
-                                           object_motions.empty() ? std::vector<uint8_t>{} : slots_, object_motions);
+  static const std::vector<uint8_t> kNoOwners;
+  const std::vector<uint8_t>& owners = object_motions.empty() ? kNoOwners : slots_;  // no copy of the labels
+  carried_semantic_ = carry_semantic_frame(semantic, depth_m, intrinsics_, T_made_current, owners, object_motions);
   return &carried_semantic_;
 }
 

@@ -195,8 +195,8 @@ std::optional<Eigen::Vector3d> CoFusion::region_centroid(const std::vector<size_
 // Which outlier regions spawn a model: one that was a candidate in the previous frame too
 // (transient outliers, a blurred frame or a depth glitch, spawn nothing), while the camera is
 // steady, within the active-model limit, and that moved as one rigid body since the previous frame
-// (LifecycleParams::spawn_rigidity; a person entering the view does not). The others are this frame's candidates for the next.
-// Several objects starting to move at once each spawn.
+// (LifecycleParams::spawn_rigidity; a person entering the view does not). The others are this
+// frame's candidates for the next. Several objects starting to move at once each spawn.
 CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult& seg, const float* depth_m,
                                           uint8_t outlier, const Model& bg, std::vector<uint8_t>& slots,
                                           CoFusionFrame& out) {

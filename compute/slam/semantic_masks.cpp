@@ -52,7 +52,7 @@ SemanticFrame carry_semantic_frame(const SemanticFrame& made, const float* depth
       const double z = depth_m[i];
       if (!(z > 0)) continue;
       const Eigen::Vector3d p_current((u - intrinsics.cx) / intrinsics.fx * z, (v - intrinsics.cy) / intrinsics.fy * z, z);
-      const Eigen::Vector3d p_made = *motion_of[owner.empty() ? 0 : owner[i]] * p_current;
+      const Eigen::Vector3d p_made = (owner.empty() ? T_made_current : *motion_of[owner[i]]) * p_current;
       if (!(p_made.z() > 0)) continue;
       const double x = intrinsics.fx * p_made.x() / p_made.z() + intrinsics.cx;
       const double y = intrinsics.fy * p_made.y() / p_made.z() + intrinsics.cy;

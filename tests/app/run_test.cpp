@@ -490,11 +490,17 @@ TEST(RunCommand, UnwritableOutputFailsBeforeProcessing) {
   EXPECT_THAT(r.output, HasSubstr("a-file"));
 }
 
+// `cofusion run` with `config` (JSON) written to DIR/NAME; `run_options` before --config.
+Result run_with_config(const fs::path& dir, const std::string& name, const std::string& config,
+                       const std::string& run_options = "") {
+  std::ofstream(dir / name) << config;
+  return run_cofusion("run --headless " + run_options + "--config " + (dir / name).string() + " --output " +
+                      (dir / "out").string());
+}
+
 TEST(RunCommand, BadConfigNamesFileAndKey) {
   const fs::path dir = fresh_temp_dir();
-  std::ofstream(dir / "config.json") << R"({"tracker": {"photometric_wieght": 2}})";
-  const Result r = run_cofusion("run --headless --config " + (dir / "config.json").string() + " --output " +
-                                (dir / "out").string());
+  const Result r = run_with_config(dir, "config.json", R"({"tracker": {"photometric_wieght": 2}})");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("photometric_wieght"));
   EXPECT_THAT(r.output, HasSubstr("config.json"));
@@ -502,32 +508,24 @@ TEST(RunCommand, BadConfigNamesFileAndKey) {
 
 TEST(RunCommand, SemanticConfigGroupIsReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
-  std::ofstream(dir / "config.json") << R"({"semantic": {"join_min_iou": 1.5}})";
-  const Result r = run_cofusion("run --headless --config " + (dir / "config.json").string() + " --output " +
-                                (dir / "out").string());
+  const Result r = run_with_config(dir, "config.json", R"({"semantic": {"join_min_iou": 1.5}})");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("config.json: semantic: confirm_frames must be >= 1")) << r.output;
-  std::ofstream(dir / "ok.json") << R"({"semantic": {"confirm_frames": 3, "join_min_iou": 0.5}})";
-  const Result ok = run_cofusion("run --headless --max-frames 3 --config " + (dir / "ok.json").string() + " --output " +
-                                 (dir / "out").string());
+  const Result ok = run_with_config(dir, "ok.json", R"({"semantic": {"confirm_frames": 3, "join_min_iou": 0.5}})",
+                                    "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
 TEST(RunCommand, SpawnRigidityConfigIsReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
-  std::ofstream(dir / "config.json") << R"({"lifecycle": {"spawn_rigidity": {"min_aligned_fraction": 1.5}}})";
-  const Result r = run_cofusion("run --headless --config " + (dir / "config.json").string() + " --output " +
-                                (dir / "out").string());
+  const Result r = run_with_config(dir, "config.json", R"({"lifecycle": {"spawn_rigidity": {"min_aligned_fraction": 1.5}}})");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("lifecycle.spawn_rigidity")) << r.output;
-  std::ofstream(dir / "typo.json") << R"({"lifecycle": {"spawn_rigidity": {"min_alinged_fraction": 0.5}}})";
-  const Result typo = run_cofusion("run --headless --config " + (dir / "typo.json").string() + " --output " +
-                                   (dir / "out").string());
+  const Result typo = run_with_config(dir, "typo.json", R"({"lifecycle": {"spawn_rigidity": {"min_alinged_fraction": 0.5}}})");
   EXPECT_NE(typo.exit_code, 0);
   EXPECT_THAT(typo.output, HasSubstr("min_alinged_fraction")) << typo.output;
-  std::ofstream(dir / "ok.json") << R"({"lifecycle": {"spawn_rigidity": {"enabled": false, "association_m": 0.05}}})";
-  const Result ok = run_cofusion("run --headless --max-frames 3 --config " + (dir / "ok.json").string() + " --output " +
-                                 (dir / "out").string());
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"spawn_rigidity": {"enabled": false, "association_m": 0.05}}})",
+                                    "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 

@@ -74,20 +74,30 @@ TEST(SemanticMasks, ExcludedPixelsAreThoseOfExcludedClasses) {
   EXPECT_FALSE(slam::parse_segmentation_mode("semantics"));
 }
 
+// A 40x30 camera (fx 30) and masks of that size with a box (id 5) at rows 8-15, columns 10-19.
+Intrinsics carry_camera() {
+  Intrinsics k;
+  k.width = 40, k.height = 30, k.fx = k.fy = 30, k.cx = 19.5, k.cy = 14.5;
+  return k;
+}
+SemanticFrame masks_with_a_box(const Intrinsics& k) {
+  SemanticFrame made;
+  made.ids.assign(size_t(k.width) * size_t(k.height), 0);
+  for (int y = 8; y < 16; ++y)
+    for (int x = 10; x < 20; ++x) made.ids[size_t(y * k.width + x)] = 5;
+  return made;
+}
+
 // Masks made from an earlier frame are carried to the current one by the camera's motion: a
 // sideways step of the camera over a wall 2 m away shifts them by fx * step / depth pixels; pixels
 // without depth, or seeing what the earlier frame did not, get no instance.
 TEST(SemanticMasks, CarriedMasksFollowTheCameraMotion) {
-  Intrinsics k;
-  k.width = 40, k.height = 30, k.fx = k.fy = 30, k.cx = 19.5, k.cy = 14.5;
+  const Intrinsics k = carry_camera();
   const size_t n = size_t(k.width) * size_t(k.height);
-  SemanticFrame made;
-  made.ids.assign(n, 0);
+  SemanticFrame made = masks_with_a_box(k);
   made.classes = {{5, "box"}, {7, "person"}};
   made.age_frames = 2;
   made.repeated = true;
-  for (int y = 8; y < 16; ++y)
-    for (int x = 10; x < 20; ++x) made.ids[size_t(y * k.width + x)] = 5;
   for (int y = 0; y < k.height; ++y) made.ids[size_t(y * k.width + k.width - 1)] = 7;  // the right column
   std::vector<float> depth_m(n, 2.0f);
   depth_m[size_t(10 * k.width + 12)] = 0.0f;  // no reading inside the box
@@ -123,15 +133,11 @@ TEST(SemanticMasks, CarriedMasksFollowTheCameraMotion) {
 // Masks from the previous frame follow an object model that moved since: where the previous
 // labels give a pixel to the object's slot, its own motion carries it; elsewhere the camera's.
 TEST(SemanticMasks, CarriedMasksFollowAnObjectsOwnMotion) {
-  Intrinsics k;
-  k.width = 40, k.height = 30, k.fx = k.fy = 30, k.cx = 19.5, k.cy = 14.5;
+  const Intrinsics k = carry_camera();
   const size_t n = size_t(k.width) * size_t(k.height);
-  SemanticFrame made;
-  made.ids.assign(n, 0);
+  SemanticFrame made = masks_with_a_box(k);  // the box moves right
   made.classes = {{5, "box"}, {6, "cup"}};
   made.age_frames = 1;
-  for (int y = 8; y < 16; ++y)
-    for (int x = 10; x < 20; ++x) made.ids[size_t(y * k.width + x)] = 5;  // the box, moving right
   for (int y = 20; y < 24; ++y)
     for (int x = 30; x < 34; ++x) made.ids[size_t(y * k.width + x)] = 6;  // a cup on the background
   const std::vector<float> depth_m(n, 2.0f);
