@@ -230,8 +230,8 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 // `--segmentation both` no model for a person (the bound; measured none), but the issue's
 // 3 cm is not met over the whole run: frames 300-400, where people cover 70-80 % of the view, tip
 // either way at the slightest change (3.6-7.3 cm for exclude_margin_px 6, 8 and 11 before the
-// concave cut of the masks, 4.1-5.5 cm at this code; docs/experiments.md): the whole run's bound, 6 cm,
-// is what those frames are seen to give, not the issue's. The first 300 frames (the office, chairs
+// concave cut of the masks, 4.1-5.5 cm at this code; docs/experiments.md): the whole run's bound,
+// 6 cm, is what those frames are seen to give, not the issue's. The first 300 frames (the office, chairs
 // and monitors as resting models, the first people walking through) are steady at 2.5-2.7 cm:
 // there the 3 cm guards what resting instance models gained.
 struct BonnRun {
