@@ -266,7 +266,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
   json root;
   try {
     root = json::parse(in);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for a number beyond double
     throw Error("config file " + path.string() + " is not valid JSON: " + e.what());
   }
   PipelineConfig config;

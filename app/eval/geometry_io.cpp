@@ -76,10 +76,13 @@ class GltfTriangleCollector {
     std::size_t stride = 0;
     std::size_t count = 0;
   };
+  const tinygltf::Accessor& accessor(int index) const {
+    if (index < 0 || index >= static_cast<int>(model_.accessors.size()))
+      throw Error("glTF file " + file_ + ": accessor index " + std::to_string(index) + " out of range");
+    return model_.accessors[static_cast<std::size_t>(index)];
+  }
   View view_of(int accessor_index, std::size_t element_size) const {
-    if (accessor_index < 0 || accessor_index >= static_cast<int>(model_.accessors.size()))
-      throw Error("glTF file " + file_ + ": accessor index " + std::to_string(accessor_index) + " out of range");
-    const auto& acc = model_.accessors[static_cast<std::size_t>(accessor_index)];
+    const auto& acc = accessor(accessor_index);
     if (acc.sparse.isSparse) throw Error("glTF file " + file_ + ": sparse accessors are not supported");
     if (acc.bufferView < 0 || acc.bufferView >= static_cast<int>(model_.bufferViews.size()))
       throw Error("glTF file " + file_ + ": accessor " + std::to_string(accessor_index) + " has no buffer view");
@@ -89,8 +92,10 @@ class GltfTriangleCollector {
     const auto& buf = model_.buffers[static_cast<std::size_t>(bv.buffer)].data;
     const std::size_t stride = bv.byteStride ? bv.byteStride : element_size;
     const std::size_t start = bv.byteOffset + acc.byteOffset;
-    const std::size_t needed = acc.count == 0 ? 0 : stride * (acc.count - 1) + element_size;
-    if (acc.byteOffset + needed > bv.byteLength || bv.byteOffset + bv.byteLength > buf.size())
+    // In this order so that no sum or product of the file's (unbounded) sizes can wrap around.
+    if (bv.byteLength > buf.size() || bv.byteOffset > buf.size() - bv.byteLength || acc.byteOffset > bv.byteLength ||
+        (acc.count > 0 && (element_size > bv.byteLength - acc.byteOffset ||
+                           acc.count - 1 > (bv.byteLength - acc.byteOffset - element_size) / stride)))
       throw Error("glTF file " + file_ + ": accessor " + std::to_string(accessor_index) + " reads past its buffer");
     return {buf.data() + start, stride, acc.count};
   }
@@ -100,7 +105,7 @@ class GltfTriangleCollector {
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN) return;
     const auto pos_it = prim.attributes.find("POSITION");
     if (pos_it == prim.attributes.end()) throw Error("glTF file " + file_ + ": a triangle primitive has no POSITION");
-    const auto& pos_acc = model_.accessors.at(static_cast<std::size_t>(std::max(0, pos_it->second)));
+    const auto& pos_acc = accessor(pos_it->second);
     if (pos_acc.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || pos_acc.type != TINYGLTF_TYPE_VEC3)
       throw Error("glTF file " + file_ + ": POSITION must be float VEC3");
     const View pos = view_of(pos_it->second, 12);
@@ -114,7 +119,7 @@ class GltfTriangleCollector {
 
     std::vector<std::uint32_t> idx;
     if (prim.indices >= 0) {
-      const auto& acc = model_.accessors.at(static_cast<std::size_t>(prim.indices));
+      const auto& acc = accessor(prim.indices);
       std::size_t size = 0;
       switch (acc.componentType) {
         case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: size = 1; break;

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
@@ -58,7 +59,10 @@ KlgSource::KlgSource(fs::path path, KlgSourceOptions options) : path_(std::move(
 
   const std::uint64_t depth_raw = 2ull * intrinsics_.intrinsics.width * intrinsics_.intrinsics.height;
   std::uint64_t offset = sizeof count;
-  entries_.reserve(static_cast<std::size_t>(count));
+  // Every frame takes at least its 16-byte header and one depth byte: a damaged count reserves no
+  // more entries than the file can hold.
+  constexpr std::uint64_t min_frame_bytes = sizeof(std::int64_t) + 2 * sizeof(std::int32_t) + 1;
+  entries_.reserve(static_cast<std::size_t>(std::min<std::uint64_t>(count, (file_size - sizeof count) / min_frame_bytes)));
   for (std::int32_t i = 0; i < count; ++i) {
     Entry e;
     constexpr std::uint64_t header = sizeof e.timestamp_us + sizeof e.depth_size + sizeof e.rgb_size;

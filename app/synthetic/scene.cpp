@@ -506,7 +506,7 @@ SceneDescription parse_scene(std::string_view json_text, const std::string& orig
   json root;
   try {
     root = json::parse(json_text.begin(), json_text.end());
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for a number beyond double
     throw Error(origin + ": invalid JSON: " + e.what());
   }
   SceneDescription s;

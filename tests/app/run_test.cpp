@@ -506,6 +506,16 @@ TEST(RunCommand, BadConfigNamesFileAndKey) {
   EXPECT_THAT(r.output, HasSubstr("config.json"));
 }
 
+// Found by fuzz_config: a number beyond double's range is JSON that nlohmann rejects with
+// out_of_range, not parse_error, and it escaped the reader without naming the file.
+TEST(RunCommand, ConfigNumberBeyondDoubleNamesTheFile) {
+  const fs::path dir = fresh_temp_dir();
+  const Result r = run_with_config(dir, "config.json", R"({"tracker": {"photometric_weight": 1E3333}})");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("config.json is not valid JSON")) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("number overflow")) << r.output;
+}
+
 TEST(RunCommand, SemanticConfigGroupIsReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   const Result r = run_with_config(dir, "config.json", R"({"semantic": {"join_min_iou": 1.5}})");

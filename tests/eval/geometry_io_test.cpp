@@ -1,5 +1,6 @@
 #include "eval/geometry_io.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <tiny_gltf.h>
 
@@ -14,6 +15,7 @@ namespace cofusion::eval {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::HasSubstr;
 
 void write_file(const fs::path& p, const std::string& bytes) {
   std::ofstream f(p, std::ios::binary);
@@ -199,6 +201,26 @@ TEST(GltfReader, BadInputs) {
   bad_index.buffers[0].data[48] = 9;  // first index (ushort, little-endian) = 9
   ASSERT_TRUE(writer.WriteGltfSceneToFile(&bad_index, (dir / "index.glb").string(), true, true, false, true));
   EXPECT_THROW(read_gltf_triangles(dir / "index.glb"), Error);
+}
+
+// Found by fuzz_gltf: a POSITION accessor that does not exist escaped as std::out_of_range; and an
+// accessor count so large that count x stride wrapped around passed the bounds check.
+TEST(GltfReader, AccessorsOutOfRangeOrTooLongAreErrorsNamingTheFile) {
+  const auto dir = test::fresh_temp_dir();
+  tinygltf::TinyGLTF writer;
+  tinygltf::Model no_accessor = square_model();
+  no_accessor.meshes[0].primitives[0].attributes["POSITION"] = 5;
+  ASSERT_TRUE(writer.WriteGltfSceneToFile(&no_accessor, (dir / "position.gltf").string(), true, true, true, false));
+  std::string msg = test::error_of([&] { read_gltf_triangles(dir / "position.gltf"); });
+  EXPECT_THAT(msg, HasSubstr("position.gltf"));
+  EXPECT_THAT(msg, HasSubstr("accessor index 5 out of range"));
+
+  tinygltf::Model wrapping = square_model();
+  wrapping.accessors[0].count = std::size_t{1} << 62;  // 12 bytes x (2^62 - 1) + 12 = 0 modulo 2^64
+  ASSERT_TRUE(writer.WriteGltfSceneToFile(&wrapping, (dir / "count.gltf").string(), true, true, true, false));
+  msg = test::error_of([&] { read_gltf_triangles(dir / "count.gltf"); });
+  EXPECT_THAT(msg, HasSubstr("count.gltf"));
+  EXPECT_THAT(msg, HasSubstr("reads past its buffer"));
 }
 
 }  // namespace

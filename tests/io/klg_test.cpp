@@ -5,6 +5,7 @@
 #include <zlib.h>
 
 #include <functional>
+#include <limits>
 
 #include "common/error.h"
 #include "io/image_io.h"
@@ -168,6 +169,21 @@ TEST(KlgSource, ZeroOrNegativeFrameCount) {
   }
   EXPECT_THAT(error_of([&] { open_log(dir / "negative.klg"); }), HasSubstr("negative frame count"));
   EXPECT_THAT(error_of([&] { open_log(dir / "missing.klg"); }), HasSubstr((dir / "missing.klg").string()));
+}
+
+// Found by fuzz_klg: a damaged count (here 2^31 - 1 frames in a 8-byte file) reserved 24 bytes per
+// frame it claimed (50 GB) before the frame walk found the log truncated.
+TEST(KlgSource, AHugeFrameCountInAShortFileIsTruncationNotAnAllocation) {
+  const fs::path dir = test::fresh_temp_dir();
+  {
+    std::ofstream out(dir / "huge.klg", std::ios::binary);
+    put_i32(out, std::numeric_limits<std::int32_t>::max());
+    put_i32(out, 0x0e020e02);
+  }
+  const std::string msg = error_of([&] { open_log(dir / "huge.klg"); });
+  EXPECT_THAT(msg, HasSubstr((dir / "huge.klg").string()));
+  EXPECT_THAT(msg, HasSubstr("frame 0"));
+  EXPECT_THAT(msg, HasSubstr("truncated"));
 }
 
 TEST(KlgSource, WrongImageSizeNamesTheFrame) {

@@ -134,6 +134,13 @@ TEST(SyntheticScene, InvalidJsonNamesTheFile) {
   EXPECT_NE(msg.find("invalid JSON"), std::string::npos) << msg;
 }
 
+// Found by fuzz_scene: nlohmann rejects a number beyond double's range with out_of_range, which
+// escaped the parser without naming the scene.
+TEST(SyntheticScene, NumberBeyondDoubleIsInvalidJsonNamingTheScene) {
+  const std::string msg = error_of([] { parse_scene(R"({"frames": 50e700})", "huge.json"); });
+  EXPECT_NE(msg.find("huge.json: invalid JSON"), std::string::npos) << msg;
+}
+
 TEST(SyntheticScene, ParsesRotationsAndQuaternions) {
   json j = minimal_scene();
   j["objects"][0]["keyframes"][0]["rotation"] = {{"axis", {0, 0, 2}}, {"angle_deg", 90}};
