@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The tests: installs what is missing (apt-get), builds (the same build as run.sh), runs every
-# GoogleTest case through ctest with Vulkan validation on. Real-data cases use $COFUSION_DATA
-# (default: ../shared/data beside this checkout) and skip when it is absent.
+# GoogleTest case through ctest with Vulkan validation on, then a short run of every fuzz target.
+# Real-data cases use $COFUSION_DATA (default: ../shared/data beside this checkout) and skip when
+# it is absent.
 # Quick local loop without the slow real-data cases: ctest --test-dir build -E Slow
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -12,3 +13,5 @@ fi
 "$root/.ci/fetch-models.sh" || echo "test.sh: no detector models (see above); the semantic detector is unavailable"
 "$root/.ci/build.sh"
 ctest --test-dir "$root/build" --output-on-failure --parallel 2 --timeout 900
+# Every reader of outside data under libFuzzer for 15 s (tests/fuzz/README.md; its own clang build).
+"$root/.ci/fuzz.sh" 15

@@ -21,6 +21,8 @@ packages=(
   libtbb-dev libcli11-dev nlohmann-json3-dev zlib1g-dev
   # tests: GoogleTest, a virtual X server for the viewer, screen capture
   libgtest-dev libgmock-dev xvfb xauth x11-apps imagemagick
+  # fuzzing the readers (.ci/fuzz.sh): clang with libFuzzer and the sanitizer runtimes
+  clang libclang-rt-dev
 )
 
 missing=()

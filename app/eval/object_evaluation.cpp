@@ -54,7 +54,8 @@ std::map<int, int> pairs_from_mapping(const std::map<int, int>& est_to_gt, const
     } catch (const Error& err) {
       throw Error(est.files.at(e).string() + " vs " + gt.files.at(g).string() + ": " + err.what());
     }
-    if (std::any_of(pairs.begin(), pairs.end(), [&](const auto& p) { return p.second == g; }))
+    const int gt_id = g;  // clang 14 cannot capture a structured binding
+    if (std::any_of(pairs.begin(), pairs.end(), [gt_id](const auto& p) { return p.second == gt_id; }))
       throw Error("mapping uses ground truth " + std::to_string(g) + " twice");
     pairs[e] = g;
   }

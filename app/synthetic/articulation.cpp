@@ -15,7 +15,7 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 // Body proportions as fractions of the standing height H (after Drillis & Contini's segment
 // lengths), measured in the pelvis frame: origin between the hip joints, x forward, y left, z up.
 struct Proportions {
-  static constexpr double kHipHeight = 0.53;  // floor to hip joint = thigh + shank + ankle height
+  // Floor to hip joint: kThigh + kShank + kAnkleHeight = 0.53 H.
   static constexpr double kThigh = 0.245, kShank = 0.246, kAnkleHeight = 0.039;
   static constexpr double kHipHalfSpacing = 0.055;
   static constexpr double kThighRadius = 0.034, kShankRadius = 0.026;
