@@ -28,7 +28,9 @@ struct SoakTolerances {
   double rss_growth_rel = 0.05;      // resident memory
   double device_growth_rel = 0.05;   // device memory of the project's buffers
   double surfels_growth_rel = 0.05;  // all models' surfels
-  // Time per frame is noisier (other processes on a shared machine, lavapipe's threads).
+  // Time per frame: the process's CPU time per frame, which other processes on a shared machine
+  // do not change (on lavapipe the device's work is this process's threads too); wall-clock time
+  // follows the machine's load and is reported only.
   double ms_growth_rel = 0.2;
 };
 
@@ -48,6 +50,7 @@ struct SoakOptions {
 struct SoakWindow {
   int first_frame = 0, end_frame = 0;  // frames [first_frame, end_frame) of the run
   double ms_per_frame = 0;             // mean wall-clock time of process() over the window
+  double cpu_ms_per_frame = 0;         // mean CPU time of the whole process (all threads) per frame
   double rss_mib = 0;                  // VmRSS at the window's end
   double device_mib = 0;               // gpu::Context::allocated_device_bytes() at the window's end
   std::vector<std::pair<int, unsigned>> surfels;  // (model id, surfels) of the active models at the end
@@ -67,8 +70,8 @@ struct SoakReport {
   // Index of the first window starting at or after covered_after_frames (the verdict's
   // baseline); nullopt when no window starts that late (a run too short to tell).
   std::optional<size_t> baseline_window;
-  // Last window against the baseline, relative (0.01 = +1 %).
-  double rss_growth_rel = 0, device_growth_rel = 0, ms_growth_rel = 0, surfels_growth_rel = 0;
+  // Last window against the baseline, relative (0.01 = +1 %); ms: wall clock, cpu_ms: CPU time.
+  double rss_growth_rel = 0, device_growth_rel = 0, ms_growth_rel = 0, cpu_ms_growth_rel = 0, surfels_growth_rel = 0;
   bool flat = false;  // every growth within SoakTolerances
 };
 
@@ -77,6 +80,9 @@ int ping_pong_frame(long i, int n);
 
 // Resident memory of this process (VmRSS of /proc/self/status), MiB; 0 where it cannot be read.
 double resident_mib();
+
+// CPU time this process (all its threads) has used so far, milliseconds.
+double process_cpu_ms();
 
 // Runs the soak on `ctx`. Throws cofusion::Error on bad options or input.
 SoakReport run_soak(gpu::Context& ctx, const SoakOptions& options);

@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "commands/bench_soak.h"
 #include "support/gpu_fixture.h"
@@ -39,6 +41,19 @@ TEST(SoakMemory, ReadsThisProcesssResidentMemory) {
   EXPECT_EQ(block[12345], 1);
 }
 
+TEST(SoakCpuTime, CountsThisProcesssWorkNotTheWallClock) {
+  // Busy: CPU time grows (within 10 s of wall clock, however loaded the machine).
+  const double before = commands::process_cpu_ms();
+  volatile double sink = 0;
+  const auto start = std::chrono::steady_clock::now();
+  while (commands::process_cpu_ms() - before < 30.0 && std::chrono::steady_clock::now() - start < std::chrono::seconds(10))
+    sink = sink + 1.0;
+  EXPECT_GE(commands::process_cpu_ms() - before, 30.0);
+  const double idle_before = commands::process_cpu_ms();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_LT(commands::process_cpu_ms() - idle_before, 50.0);  // asleep: no CPU time (other test threads aside)
+}
+
 class BenchSoak : public GpuTest {};
 
 // 40 frames of the first 8 of the room (a round trip is 14 frames): five windows, each with
@@ -64,6 +79,7 @@ TEST_F(BenchSoak, EveryWindowHasSaneFiguresAndTheVerdictComparesAfterTheMapCover
     EXPECT_EQ(win.first_frame, int(w) * 8);
     EXPECT_EQ(win.end_frame, int(w) * 8 + 8);
     EXPECT_GT(win.ms_per_frame, 0.0);
+    EXPECT_GT(win.cpu_ms_per_frame, 0.0);
     EXPECT_GT(win.rss_mib, 10.0);
     EXPECT_LT(win.rss_mib, 16384.0);
     // The background model's buffers alone: 2^19 surfels * (48 + 48 + 4) bytes = 50 MiB.
@@ -77,12 +93,12 @@ TEST_F(BenchSoak, EveryWindowHasSaneFiguresAndTheVerdictComparesAfterTheMapCover
     EXPECT_GE(win.max_camera_error_m, 0.0);
     EXPECT_LT(win.max_camera_error_m, 0.02);
   }
-  EXPECT_TRUE(std::isfinite(r.rss_growth_rel) && std::isfinite(r.ms_growth_rel));
+  EXPECT_TRUE(std::isfinite(r.rss_growth_rel) && std::isfinite(r.ms_growth_rel) && std::isfinite(r.cpu_ms_growth_rel));
   EXPECT_LE(std::abs(r.device_growth_rel), 0.05) << "no buffer grows once the room is mapped";
   const auto j = commands::to_json(r);
   EXPECT_EQ(j["windows"].size(), 5u);
   EXPECT_EQ(j["baseline_window"].get<int>(), 2);
-  for (const char* k : {"rss_rel", "device_rel", "ms_per_frame_rel", "surfels_rel"}) EXPECT_TRUE(j["growth"].contains(k)) << k;
+  for (const char* k : {"rss_rel", "device_rel", "ms_per_frame_rel", "cpu_ms_per_frame_rel", "surfels_rel"}) EXPECT_TRUE(j["growth"].contains(k)) << k;
   EXPECT_EQ(j["flat"].get<bool>(), r.flat);
 }
 
@@ -119,6 +135,7 @@ TEST(BenchSoakCommand, PrintsAWindowLineEveryKFramesAndTheVerdictAndWritesJson) 
   EXPECT_THAT(out, HasSubstr("soak: 30 frames of synthetic:static_room")) << out;
   EXPECT_THAT(out, HasSubstr("(320x240, 6 frames played back and forth), a window every 10 frames")) << out;
   EXPECT_THAT(out, HasSubstr("ms/frame")) << out;
+  EXPECT_THAT(out, HasSubstr("CPU per frame")) << out;
   EXPECT_THAT(out, HasSubstr("verdict: window ending at frame 20")) << out;
   EXPECT_THAT(out, HasSubstr("resident memory")) << out;
   EXPECT_THAT(out, HasSubstr("device memory")) << out;
