@@ -177,6 +177,8 @@ class DataReader {
   void read(VertexTable& table, const Element& vertex, const std::vector<int>& column_of) {
     for (const Element& e : h_.elements) {
       const bool is_vertex = &e == &vertex;
+      // An element without properties has no data, whatever its count says.
+      if (e.properties.empty()) continue;
       for (std::size_t n = 0; n < e.count; ++n)
         for (std::size_t k = 0; k < e.properties.size(); ++k) {
           const Property& p = e.properties[k];
@@ -218,7 +220,11 @@ class DataReader {
   void skip_list(const Property& p, const std::string& element, std::size_t instance) {
     const double len = scalar(p.count_type, element, instance);
     if (len < 0 || len != std::floor(len)) throw Error(where(element, instance) + ": bad list length");
-    for (long long m = 0; m < static_cast<long long>(len); ++m) scalar(p.type, element, instance);
+    // Every item takes at least a byte: a longer list is truncated data (and no count is cast
+    // beyond the integers' range).
+    if (len > static_cast<double>(data_.size() - at_))
+      throw Error(where(element, instance) + ": list of " + std::to_string(len) + " items runs past the end of the file");
+    for (std::size_t m = 0; m < static_cast<std::size_t>(len); ++m) scalar(p.type, element, instance);
   }
 
   const std::string& data_;

@@ -99,6 +99,24 @@ TEST(PlyReader, BadInputs) {
   EXPECT_THROW(read_ply_points(dir / "nan.ply"), Error);
 }
 
+// Found by fuzz_ply: an element before the vertices with a huge count and no properties was walked
+// instance by instance (10^14 empty steps); an ascii list length of 1e300 would be cast past the
+// integers' range. Both end at once now: the element holds no data, the list runs past the file.
+TEST(PlyReader, HugeCountsBeforeTheVerticesEndAtOnce) {
+  const auto dir = test::fresh_temp_dir();
+  write_file(dir / "empty_element.ply", "ply\nformat ascii 1.0\nelement face 66666666666666\nelement vertex 1\n"
+                                        "property float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n");
+  const auto points = read_ply_points(dir / "empty_element.ply");
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_EQ(points[0], Eigen::Vector3d(1, 2, 3));
+  write_file(dir / "long_list.ply", "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                    "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                                    "end_header\n1e300 0 0 0\n1 2 3\n");
+  const std::string msg = test::error_of([&] { read_ply_points(dir / "long_list.ply"); });
+  EXPECT_THAT(msg, HasSubstr("long_list.ply: face 0"));
+  EXPECT_THAT(msg, HasSubstr("runs past the end of the file"));
+}
+
 // A glTF model with one triangle mesh (a unit square in z = 0 as two triangles, ushort indices)
 // used by a child node, under a translated parent; plus a POINTS primitive that must be skipped.
 tinygltf::Model square_model() {
