@@ -1,22 +1,19 @@
 #!/usr/bin/env bash
-# libFuzzer runs of every reader of outside data (tests/fuzz/README.md). Builds the targets with
-# clang, AddressSanitizer and UndefinedBehaviorSanitizer in ./build-fuzz and runs each for SECONDS
-# (default 15) from the committed seeds (tests/fuzz/corpus/<target>/) and what earlier runs in
-# this build folder added (build-fuzz/corpus/<target>/). A crash, leak, sanitizer report, uncaught
+# libFuzzer runs of every reader of outside data (tests/fuzz/README.md). Builds the targets in
+# ./build-asan (.ci/configure-asan.sh: clang, ASan, UBSan) and runs each for SECONDS (default 15)
+# from the committed seeds (tests/fuzz/corpus/<target>/) and what earlier runs in this build
+# folder added (build-asan/corpus/<target>/). A crash, leak, sanitizer report, uncaught
 # exception, input slower than 10 s or allocation over 2 GB fails the script; the input is kept
-# in build-fuzz/findings/<target>/ and the log in build-fuzz/fuzz-logs/<target>.txt.
+# in build-asan/findings/<target>/ and the log in build-asan/fuzz-logs/<target>.txt.
 # Usage: .ci/fuzz.sh [SECONDS] [TARGET...]   (TARGET: klg, ply, ...; JOBS=N runs N at once)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build="$root/build-fuzz"
+build="$root/build-asan"
 seconds="${1:-15}"
 shift || true
 jobs="${JOBS:-$(nproc)}"
 
-flags="-O1 -gline-tables-only"
-CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=$flags" "-DCMAKE_C_FLAGS_RELWITHDEBINFO=$flags" \
-  -DCOFUSION_FUZZ=ON -DCOFUSION_BUILD_TESTS=OFF >/dev/null
+"$root/.ci/configure-asan.sh"
 cmake --build "$build" --parallel "$jobs" --target fuzzers >/dev/null
 
 targets=("$@")
