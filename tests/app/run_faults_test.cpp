@@ -7,10 +7,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
@@ -293,6 +295,129 @@ TEST(RunFaults, NegativeMaxFramesIsOneShortLine) {
   EXPECT_THAT(r.output, HasSubstr("--max-frames: must be a whole number of frames, 1 or more (got '-3')"));
   EXPECT_LT(r.output.size(), 300u) << r.output;
   EXPECT_FALSE(fs::exists(out));
+}
+
+// One kind of bad input: what `setup` writes into a fresh folder (given a valid generated TUM
+// copy there as tum/) and the arguments before --output; the run must exit with `exit_code`, say
+// `message` on its first line (one line, two for the command line's own errors with their hint)
+// and leave no output folder.
+struct BadInput {
+  const char* what;
+  std::function<std::string(const fs::path& dir)> setup;
+  std::string message;
+  int exit_code = 1;
+};
+
+void write(const fs::path& file, const std::string& text) {
+  fs::create_directories(file.parent_path());
+  std::ofstream(file, std::ios::trunc | std::ios::binary) << text;
+}
+
+using Setup = std::function<std::string(const fs::path& dir)>;
+
+// The valid TUM copy with `file` (relative to it) written as `text`.
+Setup tum_with(const std::string& file, const std::string& text) {
+  return [=](const fs::path& d) {
+    write(d / "tum" / file, text);
+    return "--input tum:" + (d / "tum").string();
+  };
+}
+// The valid TUM copy with `options` after it.
+Setup tum_and(const std::string& options) {
+  return [=](const fs::path& d) { return "--input tum:" + (d / "tum").string() + " " + options; };
+}
+// A .klg log holding `count` as its frame count, then `rest`.
+Setup klg_with_count(std::int32_t count, const std::string& rest = "") {
+  return [=](const fs::path& d) {
+    write(d / "log.klg", std::string(reinterpret_cast<const char*>(&count), sizeof count) + rest);
+    return "--input klg:" + (d / "log.klg").string();
+  };
+}
+// A file `name` holding `text`, given to `option`.
+Setup file_option(const std::string& option, const std::string& name, const std::string& text) {
+  return [=](const fs::path& d) {
+    write(d / name, text);
+    return option + (d / name).string();
+  };
+}
+// `args` as they are (paths under the case's folder where `name` is given: ARGS + DIR/name).
+Setup plain(const std::string& args, const std::string& name = "") {
+  return [=](const fs::path& d) { return name.empty() ? args : args + (d / name).string(); };
+}
+// The valid TUM copy read through rgb.txt (no associations.txt), whose second line is malformed.
+std::string rgb_list_without_associations(const fs::path& d) {
+  fs::remove(d / "tum" / "associations.txt");
+  write(d / "tum" / "rgb.txt", "# colour\nabc rgb/x.png\n");
+  return "--input tum:" + (d / "tum").string();
+}
+// A folder holding only a readme: no TUM lists.
+std::string folder_without_lists(const fs::path& d) {
+  write(d / "lists" / "readme", "x");
+  return "--input tum:" + (d / "lists").string();
+}
+// An image folder with one colour image and no depth image.
+std::string colour_without_depth(const fs::path& d) {
+  fs::create_directories(d / "img" / "depth");
+  fs::create_directories(d / "img" / "colour");
+  cv::imwrite((d / "img" / "colour" / "0.png").string(), cv::Mat(4, 4, CV_8UC3, cv::Scalar::all(9)));
+  return "--input images:" + (d / "img").string();
+}
+
+std::vector<BadInput> bad_inputs() {
+  const std::string huge_count_tail = "\x02\x0e\x02\x0e";
+  return {
+      {"missing TUM folder", plain("--input tum:", "nothing"), "does not exist or is not a folder"},
+      {"TUM folder without lists", folder_without_lists, "has neither associations.txt nor rgb.txt"},
+      {"malformed rgb.txt line", rgb_list_without_associations, "rgb.txt:2: 'abc' is not a timestamp"},
+      {"malformed associations.txt", tum_with("associations.txt", "0.1 rgb/a.png\n"), "associations.txt:1: expected"},
+      {"malformed calibration.txt", tum_with("calibration.txt", "525 five 319.5 239.5\n"), "calibration.txt: 'five' is not"},
+      {"implausible calibration", tum_with("calibration.txt", "-525 525 319.5 239.5 640 480\n"), "implausible intrinsics"},
+      {"malformed groundtruth.txt", tum_with("groundtruth.txt", "1.0 2.0 three\n"), "groundtruth.txt:1: expected 8"},
+      {"class table with a bad line", tum_with("masks/classes.txt", "1 box\nseven can\n"), "classes.txt:2: 'seven'"},
+      {"missing klg log", plain("--input klg:", "none.klg"), "none.klg does not exist"},
+      {"klg log shorter than its count", file_option("--input klg:", "short.klg", "ab"), "shorter than its 4-byte frame count"},
+      {"klg log with a negative count", klg_with_count(-3), "negative frame count"},
+      {"klg log with no frames", klg_with_count(0), "holds no frames"},
+      {"klg log truncated in a header", klg_with_count(2, "12345678"), "truncated"},
+      {"klg log with a huge count", klg_with_count(2147483647, huge_count_tail), "truncated"},
+      {"missing image folder", plain("--input images:", "none"), "none does not exist"},
+      {"image folder with colour but no depth", colour_without_depth, "1 colour images in"},
+      {"missing .oni file", plain("--input oni:", "none.oni"), "none.oni does not exist"},
+      {"unknown source scheme", plain("--input foo:bar"), "unknown source scheme 'foo'"},
+      {"unknown scene", plain("--input synthetic:nosuchscene"), "is neither a built-in scene"},
+      {"scene file that is no JSON", file_option("--input synthetic:", "scene.json", "{ \"frames\": "), "invalid JSON"},
+      {"--intrinsics with three numbers", tum_and("--intrinsics 1,2,3"), "expected 4 numbers"},
+      {"--intrinsics of no kind", tum_and("--intrinsics nonsense"), "expected 'fx,fy,cx,cy[,w,h]'"},
+      {"missing config file", plain("--config ", "none.json"), "--config: File does not exist", 105},
+      {"config that is no JSON", file_option("--config ", "c.json", "{"), "is not valid JSON"},
+      {"config with an unknown key", file_option("--config ", "c.json", R"({"fusion": {"nonsense": 1}})"),
+       "unknown key 'nonsense'"},
+      {"config with a wrong type", file_option("--config ", "c.json", R"({"tracker": {"photometric_weight": "x"}})"),
+       "wrong type"},
+      {"config with a number beyond double", file_option("--config ", "c.json", R"({"tracker": {"photometric_weight": 1E3333}})"),
+       "is not valid JSON"},
+      {"--depth-correction out of range", tum_and("--depth-correction 3"), "--depth-correction: Value 3 not in range", 105},
+      {"--segmentation unknown", plain("--segmentation bogus"), "--segmentation must be motion, semantic or both"},
+      {"--max-frames negative", plain("--max-frames -3"), "--max-frames: must be a whole number", 105},
+  };
+}
+
+TEST(RunFaults, EveryKindOfBadInputFailsWithOneLineNamingItAndLeavesNoOutput) {
+  const TumCopy valid = generate_tum(3);
+  const std::vector<BadInput> cases = bad_inputs();
+  EXPECT_GE(cases.size(), 30u);
+  for (const BadInput& c : cases) {
+    SCOPED_TRACE(c.what);
+    const fs::path dir = fresh_temp_dir("bad-input");
+    fs::copy(valid.dir, dir / "tum", fs::copy_options::recursive);
+    const fs::path out = dir / "out";
+    const Result r = run_cofusion(kRun + c.setup(dir) + " --output " + out.string());
+    EXPECT_EQ(r.exit_code, c.exit_code) << r.output;
+    const std::string first_line = r.output.substr(0, r.output.find('\n'));
+    EXPECT_THAT(first_line, HasSubstr(c.message)) << r.output;
+    EXPECT_LE(std::count(r.output.begin(), r.output.end(), '\n'), c.exit_code == 1 ? 1 : 2) << r.output;
+    EXPECT_FALSE(fs::exists(out)) << "output left behind";
+  }
 }
 
 }  // namespace
