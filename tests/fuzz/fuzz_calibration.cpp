@@ -11,9 +11,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   const std::string option = cofusion::fuzz::as_text(data, size);
   // Text naming a file would make the option read it: only numbers and preset names are fuzzed.
-  if (option.find('/') == std::string::npos) try {
-      cofusion::parse_intrinsics_option(option);
-    } catch (const cofusion::Error&) {
-    }
+  if (option.find('/') != std::string::npos) return 0;
+  try {
+    cofusion::parse_intrinsics_option(option);
+  } catch (const cofusion::Error&) {
+  }
   return 0;
 }
