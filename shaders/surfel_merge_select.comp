@@ -24,7 +24,6 @@ bool cell_fused(int x, int y) {
 uint merge_target(uint i) {
   const vec4 pos_i = surfel_position_confidence(surfels, i);
   if (!(pos_i.w < p.max_source_confidence)) return MERGE_NONE;
-  if (p.source_stride > 1u && (i / MERGE_SOURCE_BLOCK) % p.source_stride != p.source_phase) return MERGE_NONE;
   const vec4 nrm_i = surfel_normal_radius(surfels, i);
   const vec3 pc = rigid_apply(p.T_camera_model, pos_i.xyz);
   if (pc.z <= 1e-3) return MERGE_NONE;

@@ -132,7 +132,6 @@ void read_fusion(Section& s, slam::FusionParams& c) {
       .field("merge_distance_rel", c.merge_distance_rel)
       .field("merge_max_normal_angle_deg", c.merge_max_normal_angle_deg)
       .field("merge_max_source_confidence", c.merge_max_source_confidence)
-      .field("merge_every_frames", c.merge_every_frames)
       .field("new_surfel_clearance_cells", c.new_surfel_clearance_cells)
       .field("initial_capacity", c.initial_capacity)
       .field("max_surfels", c.max_surfels)
@@ -141,7 +140,6 @@ void read_fusion(Section& s, slam::FusionParams& c) {
   if (c.new_surfel_clearance_cells < 0 || c.new_surfel_clearance_cells > 8)
     throw Error(s.where() + ".new_surfel_clearance_cells: must be 0..8");
   if (c.merge_window_cells < 0 || c.merge_window_cells > 8) throw Error(s.where() + ".merge_window_cells: must be 0..8");
-  if (c.merge_every_frames < 1 || c.merge_every_frames > 64) throw Error(s.where() + ".merge_every_frames: must be 1..64");
   if (!(c.merge_distance_rel >= 0.0f)) throw Error(s.where() + ".merge_distance_rel: must be >= 0 (0: no merging)");
   if (!(c.cull_keep_fraction > 0.0f && c.cull_keep_fraction <= 1.0f))
     throw Error(s.where() + ".cull_keep_fraction: must be in (0, 1]");

@@ -279,7 +279,7 @@ void SurfelPipelines::subsample(gpu::CommandList& cmd, const kernels::FramePyram
 namespace {
 // Merge search over the fusion's index map, in the part of the image this fusion covered (the
 // index map's rows outside its rectangle are stale).
-L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, int frame, const FusionParams& params) {
+L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, const FusionParams& params) {
   L::MergeParams mp{};
   std::copy(fp.T_camera_model, fp.T_camera_model + 12, mp.T_camera_model);
   mp.fx = fp.fx, mp.fy = fp.fy, mp.cx = fp.cx, mp.cy = fp.cy;
@@ -291,8 +291,6 @@ L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, int 
   mp.min_normal_dot = float(std::cos(params.merge_max_normal_angle_deg * M_PI / 180.0));
   mp.use_labels = fp.label_mask != FUSE_ALL_LABELS ? 1u : 0u, mp.label_mask = fp.label_mask;
   mp.max_source_confidence = params.merge_max_source_confidence;
-  mp.source_stride = uint32_t(std::max(params.merge_every_frames, 1));
-  mp.source_phase = uint32_t(std::max(frame, 0)) % mp.source_stride;
   return mp;
 }
 
@@ -452,7 +450,7 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   const L::SplatParams sp = fusion_splat_params(fp, params);
   const bool merge = params.merge_distance_rel > 0.0f && model.count_ > 0;
   const L::CleanupParams cp = cleanup_params(fp, most_surfels, params, merge);
-  const L::MergeParams mp = merge_params(fp, most_surfels, frame, params);
+  const L::MergeParams mp = merge_params(fp, most_surfels, params);
 
   const gpu::BufferPtr& label_buffer = labels ? labels : model.no_labels_;
   // One blocks buffer serves fusion's new surfels (a block per COMPACTION_BLOCK pixels of the

@@ -62,12 +62,6 @@ struct FusionParams {
   // the stable confidence, 6, stable duplicates stayed: fr1/rpy 12% -> 16% duplicates).
   float merge_max_source_confidence = 1e30f;
   float merge_max_normal_angle_deg = 35.0f;
-  // Each fusion, only every merge_every_frames-th block of 128 surfels (by index, the phase
-  // turning with the frame number) looks for a neighbour to merge into, so a duplicate is found
-  // within about this many frames and the search (the costliest pass of fusion, about a quarter
-  // of a frame on lavapipe when every surfel searched) costs 1 / merge_every_frames. 1 = every
-  // surfel, every frame.
-  int merge_every_frames = 2;
   // Initial capacity of a model's surfel buffer; it doubles when full.
   unsigned initial_capacity = 1u << 19;
   // Most surfels a model keeps after a fusion (0: no cap of its own). The device sets a limit too:

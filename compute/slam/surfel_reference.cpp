@@ -232,7 +232,6 @@ uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint
                       const std::vector<uint32_t>& labels, uint32_t i, const gpu_layout::MergeParams& p) {
   const Surfel& si = surfels[i];
   if (!(si.confidence < p.max_source_confidence)) return MERGE_NONE;
-  if (p.source_stride > 1 && (i / MERGE_SOURCE_BLOCK) % p.source_stride != p.source_phase) return MERGE_NONE;
   const vec3 pc = apply(p.T_camera_model, position(si));
   if (pc.z <= 1e-3f) return MERGE_NONE;
   const uint32_t S = p.grid_scale, grid_width = p.width * S, grid_height = p.height * S;

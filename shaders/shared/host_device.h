@@ -268,12 +268,7 @@ struct MergeParams {
   uint use_labels;
   uint label_mask;
   float max_source_confidence;  // only surfels below this confidence look for a target
-  // ... and of those only the ones whose index i has (i / MERGE_SOURCE_BLOCK) % source_stride ==
-  // source_phase (a stride of 0 or 1: every surfel). Whole blocks, so that a SIMD group or
-  // workgroup skips together (alternate surfels would leave every group as busy as before).
-  uint source_stride, source_phase;
 };
-#define MERGE_SOURCE_BLOCK 128u
 
 // ---- surfel_remove_region.comp: remove the surfels that a labelled live region covers ----------
 // (Co-Fusion: when part of the background starts moving as its own model, the background's copy
