@@ -186,9 +186,13 @@ std::vector<Frame> read_frames(const std::string& input, int max_frames) {
   return frames;
 }
 
+// Frames at each end of a run whose medians bench_models compares (issue 22: time per frame over
+// TUM fr1/rpy-200 may vary by less than 20 % between its first and last 50 frames).
+constexpr size_t kFirstLastFrames = 50;
+
 // Co-Fusion over a scene (motion segmentation, lifecycle, one model per moving object): every
 // frame is timed and grouped by the number of models tracked in it, so the figures read as "fps
-// with N models". Superpixels run on the CPU job system while the GPU tracks; the overlap column
+// with N models"; also the medians of the first and last kFirstLastFrames counted frames. Superpixels run on the CPU job system while the GPU tracks; the overlap column
 // says how much of that time was hidden behind GPU work.
 Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, const PipelineConfig& config) {
   const std::vector<Frame> frames = read_frames(input, max_frames);
@@ -196,6 +200,7 @@ Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, c
   slam::CoFusion slam(ctx, k, config.cofusion());
   std::map<size_t, StageTimes> by_models;
   std::map<size_t, KernelTimes> kernels_by_models;
+  std::vector<double> frame_ms;  // every counted frame, in order
   for (size_t i = 0; i < frames.size(); ++i) {
     const auto start = std::chrono::steady_clock::now();
     const auto r = slam.process(frames[i].depth_m.ptr<float>(), frames[i].rgb.data);
@@ -211,6 +216,7 @@ Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, c
     times.add("  of which overlapped GPU work", r.superpixels_overlap_ms);
     times.add("  segmentation after tracking", r.segment_ms);
     times.add("whole frame", ms);
+    frame_ms.push_back(ms);
   }
   std::printf("\nmulti-object pipeline on %s (%dx%d, %zu frames, first 2 not counted)\n", input.c_str(),
               k.width, k.height, frames.size());
@@ -232,6 +238,12 @@ Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, c
     if (auto it = kernels_by_models.find(models); it != kernels_by_models.end())
       if (Json kernels = print_kernel_table(it->second); !kernels.is_null()) group["gpu_kernels"] = std::move(kernels);
     json["by_active_models"].push_back(std::move(group));
+  }
+  if (const auto m = first_last_medians(frame_ms, kFirstLastFrames)) {
+    std::printf("\ntime per frame over the run: median of the first %zu counted frames %.1f ms, of the last %zu %.1f ms (%+.0f %%)\n",
+                m->window, m->first_ms, m->window, m->last_ms, 100.0 * m->change());
+    json["first_last"] = {{"window_frames", m->window}, {"first_median_ms", m->first_ms},
+                          {"last_median_ms", m->last_ms}, {"change", m->change()}};
   }
   return json;
 }

@@ -3,10 +3,37 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace cofusion::commands {
+
+// Median of `v` (0 when empty).
+inline double median_of(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Whether time per frame grows over a run: the median of its first `window` frames and of its
+// last `window` (time order; fewer when the run is shorter than 2 * window: half of it each).
+struct FirstLastMedians {
+  size_t window = 0;
+  double first_ms = 0, last_ms = 0;
+  double change() const { return first_ms > 0 ? last_ms / first_ms - 1 : 0; }  // +0.2 = 20 % slower
+};
+// nullopt for fewer than 2 frames.
+inline std::optional<FirstLastMedians> first_last_medians(const std::vector<double>& frame_ms, size_t window) {
+  if (frame_ms.size() < 2) return std::nullopt;
+  FirstLastMedians m;
+  m.window = std::min(window, frame_ms.size() / 2);
+  const auto w = static_cast<std::ptrdiff_t>(m.window);
+  m.first_ms = median_of({frame_ms.begin(), frame_ms.begin() + w});
+  m.last_ms = median_of({frame_ms.end() - w, frame_ms.end()});
+  return m;
+}
 
 class StageTimes {
  public:
@@ -18,12 +45,7 @@ class StageTimes {
   // Stages in first-seen order.
   const std::vector<std::string>& stages() const { return order_; }
   const std::vector<double>& samples(const std::string& stage) const { return samples_.at(stage); }
-  double median(const std::string& stage) const {
-    auto v = samples_.at(stage);
-    std::sort(v.begin(), v.end());
-    const size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-  }
+  double median(const std::string& stage) const { return median_of(samples_.at(stage)); }
   double mean(const std::string& stage) const {
     const auto& v = samples_.at(stage);
     double s = 0;

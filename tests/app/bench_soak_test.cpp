@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "commands/bench_soak.h"
+#include "commands/stage_timer.h"
 #include "support/gpu_fixture.h"
 #include "support/test_support.h"
 
@@ -18,6 +19,27 @@ namespace cofusion::test {
 namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+
+// The first and last frames' medians of `bench`'s multi-object figures (issue 22's time-per-frame
+// bound), including runs shorter than two windows.
+TEST(FirstLastMedians, ComparesTheFirstAndLastWindowsInTimeOrder) {
+  std::vector<double> ms;
+  for (int i = 0; i < 120; ++i) ms.push_back(i < 50 ? 100.0 + i % 3 : i >= 70 ? 130.0 - i % 5 : 1000.0);
+  const auto m = commands::first_last_medians(ms, 50);
+  ASSERT_TRUE(m.has_value());
+  EXPECT_EQ(m->window, 50u);
+  EXPECT_DOUBLE_EQ(m->first_ms, 101.0);  // 100, 101, 102 repeating: 17 x 100, 17 x 101, 16 x 102
+  EXPECT_DOUBLE_EQ(m->last_ms, 128.0);   // 130..126 repeating, 10 each
+  EXPECT_NEAR(m->change(), 128.0 / 101.0 - 1, 1e-12);
+
+  const auto short_run = commands::first_last_medians({4, 1, 9, 7, 5}, 50);  // half of it each
+  ASSERT_TRUE(short_run.has_value());
+  EXPECT_EQ(short_run->window, 2u);
+  EXPECT_DOUBLE_EQ(short_run->first_ms, 2.5);
+  EXPECT_DOUBLE_EQ(short_run->last_ms, 6.0);
+  EXPECT_FALSE(commands::first_last_medians({3}, 50).has_value());
+  EXPECT_EQ(commands::median_of({}), 0.0);
+}
 
 TEST(SoakPingPong, PlaysTheSceneForwardsThenBackwardsWithoutJumps) {
   std::vector<int> played;

@@ -669,6 +669,12 @@ TEST(BenchCommand, JsonHasEveryFigureAndItsRatioToOpenCvOdometry) {
     expect_ratios_of(group["stages"], models_opencv_ms);
   }
   EXPECT_EQ(grouped, 5 - 2);
+  // First and last counted frames: 3 counted frames, one at each end.
+  const auto& first_last = models["first_last"];
+  EXPECT_EQ(first_last["window_frames"].get<int>(), 1);
+  const double first_ms = first_last["first_median_ms"].get<double>(), last_ms = first_last["last_median_ms"].get<double>();
+  EXPECT_GT(first_ms, 0.0);
+  EXPECT_NEAR(first_last["change"].get<double>(), last_ms / first_ms - 1, 1e-9);
 
   // Per segmentation mode: the mean frame over OpenCV's median.
   const auto& semantic = j["semantic"];
