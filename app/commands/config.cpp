@@ -168,6 +168,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("warmup_frames", c.warmup_frames)
       .field("spawn_max_camera_rotation_deg", c.spawn_max_camera_rotation_deg)
       .field("spawn_max_camera_translation_m", c.spawn_max_camera_translation_m)
+      .field("spawn_steady_frames", c.spawn_steady_frames)
       .field("spawn_min_overlap", c.spawn_min_overlap)
       .field("spawn_max_velocity_guess_m", c.spawn_max_velocity_guess_m)
       .field("spawn_max_area_fraction", c.spawn_max_area_fraction)
@@ -195,6 +196,8 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
     throw Error(where + ".spawn_min_area_fraction: must be in (0, 1)");
   if (c.max_active_models < 1 || c.max_active_models > 31) throw Error(where + ".max_active_models: must be 1..31");
+  if (c.spawn_steady_frames < 1 || c.spawn_steady_frames > 16)
+    throw Error(where + ".spawn_steady_frames: must be 1..16 (the camera history's length)");
   if (c.deactivate_after_frames < 1 || c.probation_frames < 1 || c.merge_window_frames < 1)
     throw Error(where + ": frame counts must be at least 1");
   s.section("spawn_rigidity", where + ".spawn_rigidity", [&](Section& q) {

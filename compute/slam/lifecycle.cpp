@@ -206,8 +206,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
   plan.regions = outlier_regions(seg, outlier, slots);
   int active_count = 0;
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
-  const bool camera_steady = !bg.tracking.failed && bg.motion.translation().norm() <= p.spawn_max_camera_translation_m &&
-                             rotation_deg(bg.motion) <= p.spawn_max_camera_rotation_deg &&
+  const bool camera_steady = !bg.tracking.failed && steady_motion(bg.motion) && camera_was_steady() &&
                              frame_ - last_recovery_frame_ >= params_.relocalisation.settle_frames;
   const std::vector<uint8_t> previous_candidates = std::move(spawn_candidate_);
   const std::vector<std::optional<Eigen::Vector3d>> previous_centroids = std::move(spawn_candidate_centroids_);
@@ -250,6 +249,28 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     }
   }
   return plan;
+}
+
+// LifecycleParams::spawn_max_camera_*: whether a camera motion (T_previous_current) is slow enough
+// for spawning.
+bool CoFusion::steady_motion(const Eigen::Isometry3d& motion) const {
+  const LifecycleParams& p = params_.lifecycle;
+  return motion.translation().norm() <= p.spawn_max_camera_translation_m &&
+         rotation_deg(motion) <= p.spawn_max_camera_rotation_deg;
+}
+
+// LifecycleParams::spawn_steady_frames: whether the camera's motions between the last
+// spawn_steady_frames frames before this one were all steady (camera_history_ holds their poses).
+bool CoFusion::camera_was_steady() const {
+  const size_t motions = size_t(std::max(params_.lifecycle.spawn_steady_frames - 1, 0));
+  if (motions == 0) return true;
+  if (camera_history_.size() < motions + 1) return false;
+  for (size_t k = camera_history_.size() - motions; k < camera_history_.size(); ++k) {
+    const auto& before = camera_history_[k - 1];
+    const auto& after = camera_history_[k];
+    if (!before || !after || !steady_motion(before->inverse() * *after)) return false;
+  }
+  return true;
 }
 
 // LifecycleParams::spawn_rigidity: the fraction of the region that moved as one rigid body since

@@ -323,6 +323,8 @@ TEST(RunCommand, TumFr1RpyFastRotationWithinThreeCentimetresSlow) {
   const double ate = camera_ate_m(read_tum_trajectory(*data / "groundtruth.txt"), out);
   RecordProperty("camera_ate_m", std::to_string(ate));
   EXPECT_LE(ate, 0.03);
+  // A static scene: no model, also right after the fast turns (LifecycleParams::spawn_steady_frames).
+  EXPECT_THAT(r.output, Not(HasSubstr("spawned model")));
 }
 
 // The multi-object outputs: a trajectory per object model beside camera.txt, per-model summary
