@@ -192,8 +192,9 @@ constexpr size_t kFirstLastFrames = 50;
 
 // Co-Fusion over a scene (motion segmentation, lifecycle, one model per moving object): every
 // frame is timed and grouped by the number of models tracked in it, so the figures read as "fps
-// with N models"; also the medians of the first and last kFirstLastFrames counted frames. Superpixels run on the CPU job system while the GPU tracks; the overlap column
-// says how much of that time was hidden behind GPU work.
+// with N models"; also the medians of the first and last kFirstLastFrames counted frames.
+// Superpixels run on the CPU job system while the GPU tracks; the overlap column says how much of
+// that time was hidden behind GPU work.
 Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, const PipelineConfig& config) {
   const std::vector<Frame> frames = read_frames(input, max_frames);
   const Intrinsics k = frames[0].intrinsics;
