@@ -103,10 +103,13 @@ struct LifecycleParams {
   // and newly revealed surfaces, not by moving objects (TUM fr1/rpy spawned dozens of models).
   double spawn_max_camera_rotation_deg = 0.5;
   double spawn_max_camera_translation_m = 0.02;
-  // ... in this frame and the spawn_steady_frames - 1 frames before it (a camera not lost in any
-  // of them). Right after a fast turn the background's tracking is still settling: TUM fr1/rpy
-  // spawned a model from its static desk one frame after a turn of 1-2.5 degrees per frame, the
-  // estimated motion of that frame (0.4 degrees) 0.9 degrees off the true one.
+  // ... in this frame, and on average over the spawn_steady_frames - 1 frames before it (a camera
+  // not lost in any of them; their per-frame rotations and translations summed). Right after a
+  // fast turn the background's tracking is still settling: TUM fr1/rpy spawned a model from its
+  // static desk one frame after a turn of 1-2.5 degrees per frame, the estimated motion of that
+  // frame (0.4 degrees) 0.9 degrees off the true one. On average, because an object that starts
+  // to move drags the camera's tracking for one frame before it is segmented (two_objects: 0.66
+  // degrees, taken back in the next frame), and a limit for every frame held its spawn back.
   int spawn_steady_frames = 3;
   // ... and only when at least this fraction of the region was a large outlier region in the
   // previous frame too.

@@ -259,18 +259,27 @@ bool CoFusion::steady_motion(const Eigen::Isometry3d& motion) const {
          rotation_deg(motion) <= p.spawn_max_camera_rotation_deg;
 }
 
-// LifecycleParams::spawn_steady_frames: whether the camera's motions between the last
-// spawn_steady_frames frames before this one were all steady (camera_history_ holds their poses).
+// LifecycleParams::spawn_steady_frames: whether the camera moved steadily over the
+// spawn_steady_frames - 1 frames before this one (camera_history_ holds their poses): none of them
+// lost, and their per-frame rotations and translations summed within that many frames' limits. A
+// fast turn exceeds the sum; a single frame the tracking got off and took back (a moving object
+// that drags the camera for a frame before it is segmented) does not.
 bool CoFusion::camera_was_steady() const {
-  const size_t motions = size_t(std::max(params_.lifecycle.spawn_steady_frames - 1, 0));
+  const LifecycleParams& p = params_.lifecycle;
+  const size_t motions = size_t(std::max(p.spawn_steady_frames - 1, 0));
   if (motions == 0) return true;
   if (camera_history_.size() < motions + 1) return false;
+  double rotation_sum_deg = 0, translation_sum_m = 0;
   for (size_t k = camera_history_.size() - motions; k < camera_history_.size(); ++k) {
     const auto& before = camera_history_[k - 1];
     const auto& after = camera_history_[k];
-    if (!before || !after || !steady_motion(before->inverse() * *after)) return false;
+    if (!before || !after) return false;
+    const Eigen::Isometry3d motion = before->inverse() * *after;
+    rotation_sum_deg += rotation_deg(motion);
+    translation_sum_m += motion.translation().norm();
   }
-  return true;
+  return rotation_sum_deg <= double(motions) * p.spawn_max_camera_rotation_deg &&
+         translation_sum_m <= double(motions) * p.spawn_max_camera_translation_m;
 }
 
 // LifecycleParams::spawn_rigidity: the fraction of the region that moved as one rigid body since

@@ -224,8 +224,8 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 
 // Issue "Real dynamic scenes" on the Bonn RGB-D Dynamic `crowd` recording (464 frames, people
 // walking in front of a hand-held camera, detector masks), default settings: camera ATE <= 5 cm,
-// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 4.10 cm, 28
-// frames refused, no model from a person: people the detector misses, entering at the image's
+// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 3.68 cm, 21
+// frames refused (first 300 frames 2.56 cm), no model from a person: people the detector misses, entering at the image's
 // edge, fail the rigidity check at spawn). With
 // `--segmentation both` no model for a person (the issue's bound; measured none), but the issue's
 // 3 cm is not met over the whole run: frames 300-400, where people cover 70-80 % of the view, tip
