@@ -320,14 +320,15 @@ PipelineConfig load_config(const std::filesystem::path& path) {
         .field("photometric_weight", config.camera_check.photometric_weight)
         .field("retry_photometric_weight", config.camera_check.retry_photometric_weight)
         .field("replaced_motion_scale", config.camera_check.replaced_motion_scale)
-        .field("agreeing_frames", config.camera_check.agreeing_frames);
+        .field("agreeing_frames", config.camera_check.agreeing_frames)
+        .field("keyframe_pose_gain", config.camera_check.keyframe_pose_gain);
     const auto& c = config.camera_check;
     if (c.step_px < 1 || !(c.tolerance_rel >= 0) || !(c.tolerance_m >= 0) ||
         !(c.min_fit_ratio >= 0 && c.min_fit_ratio <= 1) || !(c.photometric_weight >= 0) ||
         !(c.retry_photometric_weight >= 0) || !(c.replaced_motion_scale >= 0 && c.replaced_motion_scale <= 1) ||
-        c.agreeing_frames < 0)
-      throw Error(q.where() + ": step_px must be >= 1, tolerances and photometric weights >= 0, min_fit_ratio and "
-                              "replaced_motion_scale in [0, 1], agreeing_frames >= 0");
+        c.agreeing_frames < 0 || !(c.keyframe_pose_gain >= 0 && c.keyframe_pose_gain <= 1))
+      throw Error(q.where() + ": step_px must be >= 1, tolerances and photometric weights >= 0, min_fit_ratio, "
+                              "replaced_motion_scale and keyframe_pose_gain in [0, 1], agreeing_frames >= 0");
   });
   s.reject_unknown();
   return config;

@@ -48,4 +48,8 @@ Eigen::Isometry3d scaled_motion(const Eigen::Isometry3d& T, double scale) {
   return out;
 }
 
+Eigen::Isometry3d motion_towards(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double gain) {
+  return from * scaled_motion(from.inverse() * to, gain);
+}
+
 }  // namespace cofusion::slam

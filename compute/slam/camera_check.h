@@ -44,6 +44,14 @@ struct CameraCheckParams {
   // a row each fit the previous frame's depth against the tracked pose before (0 = never): the
   // replaced path has drifted from the model, and the model's own poses agree with the frames.
   int agreeing_frames = 3;
+  // A refused motion is moved this fraction of the way from its replacement (the slowed guess or
+  // no motion) towards the camera pose that the frame's ORB features outside the excluded classes'
+  // pixels give against the keyframes' (RANSAC PnP, as for relocalisation); the agreement rule is
+  // not applied in such a frame. When movers fill the view the model and the previous frame can
+  // both lead the camera astray (Bonn crowd: a pose 30 cm off that three refused frames agreed
+  // on); the keyframes are evidence from neither. A fraction because each PnP pose is a few
+  // centimetres off on its own: 1 takes it as it is, 0 switches this off.
+  double keyframe_pose_gain = 0.5;
 };
 
 // The share of live pixels with depth (every step_px-th in x and y) that fit the reference depth
@@ -80,6 +88,10 @@ struct CameraDecision {
 // the camera is lost.
 CameraDecision decide_camera_motion(const CameraFits& fits, bool tracking_failed, bool refused_poses_agree,
                                     double last_fit, const CameraCheckParams& params);
+
+// The motion `gain` of the way from `from` to `to` (both T_reference_live): `from` followed by
+// the difference between the two, scaled (scaled_motion). 0 gives `from`, 1 gives `to`.
+Eigen::Isometry3d motion_towards(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double gain);
 
 // The motion `scale` times as far: rotation angle (about the same axis) and translation scaled
 // (CameraCheckParams::replaced_motion_scale). 0 gives no motion, 1 the motion itself.

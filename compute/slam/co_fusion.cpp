@@ -414,6 +414,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   out.frame = frame_;
   const int width = intrinsics_.width, height = intrinsics_.height;
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
+  frame_rgb_ = rgb;
+  frame_excluded_ = &excluded;
   auto lap = Clock::now();
   const auto stage = [&](const char* name) {
     const auto now = Clock::now();
@@ -658,6 +660,8 @@ std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m, const
   if (!fits) return {};
   const CameraFits& f = *fits;
   const bool failed = bg.tracking.failed;
+  if (!failed && f.refused(p.min_fit_ratio) && p.keyframe_pose_gain > 0)
+    if (const auto T_world_features = keyframe_camera_pose(depth_m)) return take_keyframe_pose(bg, f, *T_world_features);
   // Agreement is counted over refused frames only (tracked_poses_agree keeps the count).
   const bool agree = !failed && f.refused(p.min_fit_ratio) && tracked_poses_agree(bg, depth_m, f);
   const CameraDecision decision = decide_camera_motion(f, failed, agree, last_camera_fit_, p);
@@ -681,6 +685,40 @@ std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m, const
   last_camera_fit_ = f.start;
   const std::string taken = (f.from_guess ? "the slowed constant-velocity guess " : "no motion ") + percent(f.start);
   return why + ", " + taken + " is taken and nothing is fused into the background";
+}
+
+// CameraCheckParams::keyframe_pose_gain: a refused motion replaced by its replacement moved part of
+// the way towards the pose the keyframes' features give; the agreement count starts anew.
+std::string CoFusion::take_keyframe_pose(Model& bg, const CameraFits& f, const Eigen::Isometry3d& T_world_features) {
+  const CameraCheckParams& p = params_.camera_check;
+  const Eigen::Isometry3d replacement = decide_camera_motion(f, false, false, last_camera_fit_, p).motion;
+  bg.motion = motion_towards(replacement, T_world_camera_.inverse() * T_world_features, p.keyframe_pose_gain);
+  bg.motion_refused = true;
+  last_camera_fit_ = f.start;
+  refused_T_world_tracked_.reset();
+  agreeing_refusals_ = 0;
+  char why[200];
+  std::snprintf(why, sizeof why,
+                "camera motion refused: it fits %d%% of the previous frame's depth; moved %.0f%% of the way towards the "
+                "keyframes' features' pose, and nothing is fused into the background",
+                int(std::lround(100 * f.tracked)), 100 * p.keyframe_pose_gain);
+  return why;
+}
+
+// The camera's pose from this frame's ORB features outside the excluded pixels, matched against
+// the keyframes' (RANSAC PnP); nullopt without keyframes or a match.
+std::optional<Eigen::Isometry3d> CoFusion::keyframe_camera_pose(const float* depth_m) const {
+  if (!frame_rgb_ || keyframes_.size() == 0) return std::nullopt;
+  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
+  std::vector<float> depth(depth_m, depth_m + n);
+  if (frame_excluded_ && frame_excluded_->size() == n)
+    for (size_t i = 0; i < n; ++i)
+      if ((*frame_excluded_)[i]) depth[i] = 0.0f;
+  const FrameEncoding encoding = keyframes_.encode(frame_rgb_, depth.data(), intrinsics_.width, intrinsics_.height);
+  const std::vector<Eigen::Isometry3d> poses =
+      keyframes_.pnp_poses(encoding, keyframes_.features(frame_rgb_, depth.data(), intrinsics_), intrinsics_);
+  if (poses.empty()) return std::nullopt;
+  return poses.front();
 }
 
 // CameraCheckParams::agreeing_frames: whether the refused tracked pose and the one refused in the
@@ -795,6 +833,7 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();
   ++frame_;
   semantic_ = nullptr;  // the caller's, valid during process() only
+  frame_rgb_ = nullptr, frame_excluded_ = nullptr;
 }
 
 std::vector<ModelSnapshot> CoFusion::models() const {

@@ -377,6 +377,8 @@ class CoFusion {
   void retry_camera_tracking(Model& bg, const float* depth_m, std::optional<CameraFits>& fits);
   bool tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f);
   std::string check_camera_motion(Model& bg, const float* depth_m, const std::optional<CameraFits>& fits);
+  std::optional<Eigen::Isometry3d> keyframe_camera_pose(const float* depth_m) const;
+  std::string take_keyframe_pose(Model& bg, const CameraFits& f, const Eigen::Isometry3d& T_world_features);
   void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);
   void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
                const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
@@ -457,6 +459,9 @@ class CoFusion {
   // The previous frame's depth (kept when CameraCheckParams or LifecycleParams::spawn_rigidity is
   // on) and the depth_fit of the camera motion the last checked frame took.
   std::vector<float> previous_depth_m_;
+  // This frame's colour and excluded pixels (process() only): for the keyframe check of refused motions.
+  const uint8_t* frame_rgb_ = nullptr;
+  const std::vector<uint8_t>* frame_excluded_ = nullptr;
   double last_camera_fit_ = 0;
   // The last frame's refused tracked pose (T_world_camera) and how many refused frames in a row
   // agreed with the one before (CameraCheckParams::agreeing_frames).

@@ -224,16 +224,16 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 
 // Issue "Real dynamic scenes" on the Bonn RGB-D Dynamic `crowd` recording (464 frames, people
 // walking in front of a hand-held camera, detector masks), default settings: camera ATE <= 5 cm,
-// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 3.68 cm, 21
-// frames refused (first 300 frames 2.56 cm), no model from a person: people the detector misses, entering at the image's
-// edge, fail the rigidity check at spawn). With
-// `--segmentation both` no model for a person (the issue's bound; measured none), but the issue's
-// 3 cm is not met over the whole run: frames 300-400, where people cover 70-80 % of the view, tip
-// either way at the slightest change (3.6-7.3 cm for exclude_margin_px 6, 8 and 11 before the
-// concave cut of the masks, 4.1-5.5 cm at this code; docs/experiments.md): the whole run's bound,
-// 6 cm, is what those frames are seen to give, not the issue's. The first 300 frames (the office, chairs
-// and monitors as resting models, the first people walking through) are steady at 2.5-2.7 cm:
-// there the issue's 3 cm guards what resting instance models gained.
+// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 3.32 cm, 17
+// frames refused (first 300 frames 2.56 cm), no model from a person: people the detector misses,
+// entering at the image's edge, fail the rigidity check at spawn). With `--segmentation both` no
+// model for a person (the issue's bound; measured none), but the issue's 3 cm is not met over the
+// whole run: measured 3.51 cm (5.53 before refused frames moved towards the keyframes' features'
+// pose, CameraCheckParams::keyframe_pose_gain); frames 297-306, where people cover most of the view
+// and the tracked motions pass the check 1-3 cm off each, give most of it (docs/experiments.md).
+// The whole run's bound, 4.5 cm, guards that gain, not the issue's 3 cm. The first 300 frames (the
+// office, chairs and monitors as resting models, the first people walking through) are steady at
+// 2.5-2.7 cm: there the issue's 3 cm guards what resting instance models gained.
 struct BonnRun {
   double ate_m = 0;
   double first_300_ate_m = 0;  // of the first 300 frames alone (aligned on them)
@@ -278,7 +278,7 @@ TEST(RunCommand, BonnCrowdCameraWithinFiveCentimetresSlow) {
 TEST(RunCommand, BonnCrowdBothModeKeepsTheRestingModelsGainSlow) {
   const auto b = run_bonn("--segmentation both");
   if (!b) GTEST_SKIP() << kNoBonn;
-  EXPECT_LE(b->ate_m, 0.06);
+  EXPECT_LE(b->ate_m, 0.045);
   EXPECT_EQ(b->nonrigid_drops, 0);
 }
 
@@ -538,6 +538,15 @@ TEST(RunCommand, SpawnRigidityConfigIsReadAndChecked) {
   EXPECT_THAT(typo.output, HasSubstr("min_alinged_fraction")) << typo.output;
   const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"spawn_rigidity": {"enabled": false, "association_m": 0.05}}})",
                                     "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
+TEST(RunCommand, KeyframePoseGainConfigIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  const Result r = run_with_config(dir, "config.json", R"({"camera_check": {"keyframe_pose_gain": 1.5}})");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("keyframe_pose_gain in [0, 1]")) << r.output;
+  const Result ok = run_with_config(dir, "ok.json", R"({"camera_check": {"keyframe_pose_gain": 0}})", "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 

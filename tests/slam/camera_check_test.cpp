@@ -101,6 +101,23 @@ TEST(ScaledMotion, ScalesAngleAndTranslationAboutTheSameAxis) {
   EXPECT_TRUE(scaled_motion(Eigen::Isometry3d::Identity(), 0.5).isApprox(Eigen::Isometry3d::Identity(), 1e-12));
 }
 
+// CameraCheckParams::keyframe_pose_gain: the replacement moved part of the way to the keyframes'
+// pose, on the motions' difference (not on their translations alone).
+TEST(MotionTowards, MovesTheGivenFractionOfTheDifference) {
+  Eigen::Isometry3d from = Eigen::Isometry3d::Identity(), to = Eigen::Isometry3d::Identity();
+  from.translation() = Eigen::Vector3d(0.01, 0.0, 0.0);
+  to.linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  to.translation() = Eigen::Vector3d(0.05, -0.02, 0.1);
+  EXPECT_TRUE(motion_towards(from, to, 0.0).isApprox(from, 1e-12));
+  EXPECT_TRUE(motion_towards(from, to, 1.0).isApprox(to, 1e-12));
+  const Eigen::Isometry3d half = motion_towards(from, to, 0.5);
+  EXPECT_NEAR(Eigen::AngleAxisd(half.rotation()).angle(), 0.1, 1e-12);
+  // Twice halfway is all the way (the same axis, the difference halved each time).
+  EXPECT_TRUE(motion_towards(half, to, 1.0).isApprox(to, 1e-12));
+  EXPECT_TRUE(half.translation().isApprox(from.translation() + 0.5 * (to.translation() - from.translation()), 1e-12))
+      << "pure translation difference from a pose without rotation";
+}
+
 // The camera check's rules (CameraCheckParams: min_fit_ratio 0.8, replaced_motion_scale 0.5).
 TEST(DecideCameraMotion, StandsReplacesOrLoses) {
   const CameraCheckParams p;
