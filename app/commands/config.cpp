@@ -321,14 +321,18 @@ PipelineConfig load_config(const std::filesystem::path& path) {
         .field("retry_photometric_weight", config.camera_check.retry_photometric_weight)
         .field("replaced_motion_scale", config.camera_check.replaced_motion_scale)
         .field("agreeing_frames", config.camera_check.agreeing_frames)
-        .field("keyframe_pose_gain", config.camera_check.keyframe_pose_gain);
+        .field("keyframe_pose_gain", config.camera_check.keyframe_pose_gain)
+        .field("keyframe_pull_gain", config.camera_check.keyframe_pull_gain)
+        .field("keyframe_pull_min_inliers", config.camera_check.keyframe_pull_min_inliers);
     const auto& c = config.camera_check;
     if (c.step_px < 1 || !(c.tolerance_rel >= 0) || !(c.tolerance_m >= 0) ||
         !(c.min_fit_ratio >= 0 && c.min_fit_ratio <= 1) || !(c.photometric_weight >= 0) ||
         !(c.retry_photometric_weight >= 0) || !(c.replaced_motion_scale >= 0 && c.replaced_motion_scale <= 1) ||
-        c.agreeing_frames < 0 || !(c.keyframe_pose_gain >= 0 && c.keyframe_pose_gain <= 1))
+        c.agreeing_frames < 0 || !(c.keyframe_pose_gain >= 0 && c.keyframe_pose_gain <= 1) ||
+        !(c.keyframe_pull_gain >= 0 && c.keyframe_pull_gain <= 1) || c.keyframe_pull_min_inliers < 0)
       throw Error(q.where() + ": step_px must be >= 1, tolerances and photometric weights >= 0, min_fit_ratio, "
-                              "replaced_motion_scale and keyframe_pose_gain in [0, 1], agreeing_frames >= 0");
+                              "replaced_motion_scale, keyframe_pose_gain and keyframe_pull_gain in [0, 1], "
+                              "agreeing_frames and keyframe_pull_min_inliers >= 0");
   });
   s.reject_unknown();
   return config;

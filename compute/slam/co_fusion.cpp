@@ -310,7 +310,7 @@ void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
         still_cost <= (1.0 + rest.max_cost_increase) * moved_cost)
       m.motion = camera_motion;
   }
-  m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.motion;
+  m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.velocity_motion.value_or(m.motion);
   m.T_prediction_live = m.motion;
   if (params_.motion_segmentation) compute_residuals(m);
 }
@@ -416,6 +416,18 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
   frame_rgb_ = rgb;
   frame_excluded_ = &excluded;
+  // The keyframes' pose of the camera, where the camera check will pull towards it: on a CPU job
+  // while the GPU preprocesses and tracks.
+  tbb::task_group keyframe_pose_job;
+  std::optional<KeyframePose> keyframe_pose;
+  frame_keyframe_pose_ = nullptr;
+  if (frame_ > 0 && !lost_ && params_.camera_check.enabled && keyframes_.size() > 0 && keyframe_pull_gain() > 0) {
+    keyframe_pose_job.run([&, depth_m] { keyframe_pose = keyframe_camera_pose(depth_m); });
+    frame_keyframe_pose_ = [&] {
+      keyframe_pose_job.wait();
+      return keyframe_pose;
+    };
+  }
   auto lap = Clock::now();
   const auto stage = [&](const char* name) {
     const auto now = Clock::now();
@@ -423,7 +435,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
     lap = now;
   };
   std::vector<Model*> active = live_models();
-  for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {};
+  for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {}, m->velocity_motion.reset();
   set_work_rects(active);
   resting_slots_ = resting_slots(active);
   live_.upload(main_stream_, depth_m, rgb);
@@ -465,6 +477,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
 
   std::vector<int> spawned_slots;
   cpu_jobs.wait();
+  keyframe_pose_job.wait();
   if (segmenting && camera == CameraState::kLost) {
     // Nothing is known of this frame's motion: no segmentation, no fusion (every model's tracking
     // counts as failed), and the previous labels stay for the next frame.
@@ -661,11 +674,12 @@ std::string CoFusion::check_camera_motion(Model& bg, const float* depth_m, const
   const CameraFits& f = *fits;
   const bool failed = bg.tracking.failed;
   if (!failed && f.refused(p.min_fit_ratio) && p.keyframe_pose_gain > 0)
-    if (const auto T_world_features = keyframe_camera_pose(depth_m)) return take_keyframe_pose(bg, f, *T_world_features);
+    if (const auto features = frame_keyframe_pose(depth_m)) return take_keyframe_pose(bg, f, features->T_world_camera);
   // Agreement is counted over refused frames only (tracked_poses_agree keeps the count).
   const bool agree = !failed && f.refused(p.min_fit_ratio) && tracked_poses_agree(bg, depth_m, f);
   const CameraDecision decision = decide_camera_motion(f, failed, agree, last_camera_fit_, p);
   if (decision.verdict == CameraVerdict::kStands) {
+    if (!failed) pull_towards_keyframes(bg, depth_m);
     last_camera_fit_ = f.tracked;
     refused_T_world_tracked_.reset();
     agreeing_refusals_ = 0;
@@ -705,9 +719,34 @@ std::string CoFusion::take_keyframe_pose(Model& bg, const CameraFits& f, const E
   return why;
 }
 
+// CameraCheckParams::keyframe_pull_gain: a camera motion that stands moves towards the keyframes'
+// features' pose (where enough matches support it) by the gain times the share of excluded
+// pixels; the next frame's guess continues the tracked motion.
+void CoFusion::pull_towards_keyframes(Model& bg, const float* depth_m) const {
+  const double gain = keyframe_pull_gain();
+  if (gain <= 0) return;
+  const auto features = frame_keyframe_pose(depth_m);
+  if (!features || features->inliers < params_.camera_check.keyframe_pull_min_inliers) return;
+  bg.velocity_motion = bg.motion;
+  bg.motion = motion_towards(bg.motion, T_world_camera_.inverse() * features->T_world_camera, gain);
+}
+
+// This frame's fraction of the way towards the keyframes' pose (CameraCheckParams::keyframe_pull_gain
+// times the excluded share of the image, at most 1).
+double CoFusion::keyframe_pull_gain() const {
+  if (!frame_excluded_ || frame_excluded_->empty()) return 0;
+  const auto excluded = std::count_if(frame_excluded_->begin(), frame_excluded_->end(), [](uint8_t e) { return e != 0; });
+  return std::min(1.0, params_.camera_check.keyframe_pull_gain * double(excluded) / double(frame_excluded_->size()));
+}
+
+// keyframe_camera_pose: the CPU job's, where process() started one.
+std::optional<KeyframePose> CoFusion::frame_keyframe_pose(const float* depth_m) const {
+  return frame_keyframe_pose_ ? frame_keyframe_pose_() : keyframe_camera_pose(depth_m);
+}
+
 // The camera's pose from this frame's ORB features outside the excluded pixels, matched against
-// the keyframes' (RANSAC PnP); nullopt without keyframes or a match.
-std::optional<Eigen::Isometry3d> CoFusion::keyframe_camera_pose(const float* depth_m) const {
+// the keyframes' together (KeyframeDatabase::pnp_pose); nullopt without keyframes or a match.
+std::optional<KeyframePose> CoFusion::keyframe_camera_pose(const float* depth_m) const {
   if (!frame_rgb_ || keyframes_.size() == 0) return std::nullopt;
   const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
   std::vector<float> depth(depth_m, depth_m + n);
@@ -715,10 +754,7 @@ std::optional<Eigen::Isometry3d> CoFusion::keyframe_camera_pose(const float* dep
     for (size_t i = 0; i < n; ++i)
       if ((*frame_excluded_)[i]) depth[i] = 0.0f;
   const FrameEncoding encoding = keyframes_.encode(frame_rgb_, depth.data(), intrinsics_.width, intrinsics_.height);
-  const std::vector<Eigen::Isometry3d> poses =
-      keyframes_.pnp_poses(encoding, keyframes_.features(frame_rgb_, depth.data(), intrinsics_), intrinsics_);
-  if (poses.empty()) return std::nullopt;
-  return poses.front();
+  return keyframes_.pnp_pose(encoding, keyframes_.features(frame_rgb_, depth.data(), intrinsics_), intrinsics_);
 }
 
 // CameraCheckParams::agreeing_frames: whether the refused tracked pose and the one refused in the
@@ -833,7 +869,7 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();
   ++frame_;
   semantic_ = nullptr;  // the caller's, valid during process() only
-  frame_rgb_ = nullptr, frame_excluded_ = nullptr;
+  frame_rgb_ = nullptr, frame_excluded_ = nullptr, frame_keyframe_pose_ = nullptr;
 }
 
 std::vector<ModelSnapshot> CoFusion::models() const {

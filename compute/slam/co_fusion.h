@@ -98,7 +98,9 @@ struct LifecycleParams {
   // ... once the background has been fused for this many frames (its model and the camera pose
   // must be stable first, paper section III).
   int warmup_frames = 5;
-  // ... and only while the camera moves less than these per frame (and its tracking succeeded):
+  // ... and only while the camera moves less than these per frame (and its tracking succeeded and
+  // its motion was not refused, CameraCheckParams: a replaced motion is a guess, and against it
+  // the static scene looks as if it moved; Bonn crowd spawned a model from a wall that way):
   // during fast camera motion the background's residuals are dominated by blur, rolling shutter
   // and newly revealed surfaces, not by moving objects (TUM fr1/rpy spawned dozens of models).
   double spawn_max_camera_rotation_deg = 0.5;
@@ -377,7 +379,10 @@ class CoFusion {
   void retry_camera_tracking(Model& bg, const float* depth_m, std::optional<CameraFits>& fits);
   bool tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f);
   std::string check_camera_motion(Model& bg, const float* depth_m, const std::optional<CameraFits>& fits);
-  std::optional<Eigen::Isometry3d> keyframe_camera_pose(const float* depth_m) const;
+  double keyframe_pull_gain() const;
+  void pull_towards_keyframes(Model& bg, const float* depth_m) const;
+  std::optional<KeyframePose> frame_keyframe_pose(const float* depth_m) const;
+  std::optional<KeyframePose> keyframe_camera_pose(const float* depth_m) const;
   std::string take_keyframe_pose(Model& bg, const CameraFits& f, const Eigen::Isometry3d& T_world_features);
   void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);
   void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
@@ -459,9 +464,12 @@ class CoFusion {
   // The previous frame's depth (kept when CameraCheckParams or LifecycleParams::spawn_rigidity is
   // on) and the depth_fit of the camera motion the last checked frame took.
   std::vector<float> previous_depth_m_;
-  // This frame's colour and excluded pixels (process() only): for the keyframe check of refused motions.
+  // This frame's colour and excluded pixels (process() only): for the keyframes' pose of the camera.
   const uint8_t* frame_rgb_ = nullptr;
   const std::vector<uint8_t>* frame_excluded_ = nullptr;
+  // This frame's keyframes' pose where a CPU job computes it while the GPU tracks (process() only;
+  // empty: computed where it is needed).
+  std::function<std::optional<KeyframePose>()> frame_keyframe_pose_;
   double last_camera_fit_ = 0;
   // The last frame's refused tracked pose (T_world_camera) and how many refused frames in a row
   // agreed with the one before (CameraCheckParams::agreeing_frames).

@@ -126,6 +126,9 @@ struct CoFusion::Model {
   Eigen::Isometry3d last_motion = Eigen::Isometry3d::Identity();  // previous frame's, the guess
   bool guess_from_centroid_step = false;  // last_motion is its region's centroid step (spawn, re-activation)
   bool motion_refused = false;  // the background's tracked motion was refused: nothing is fused
+  // The motion that the next frame's guess continues where it is not `motion`: a correction of the
+  // camera's pose (CameraCheckParams::keyframe_pull_gain) is not a velocity.
+  std::optional<Eigen::Isometry3d> velocity_motion;
   // The live frame in the view its prediction was made from: the residuals' transform (`motion`,
   // except after a relocalisation, which predicts from the recovered pose).
   Eigen::Isometry3d T_prediction_live = Eigen::Isometry3d::Identity();

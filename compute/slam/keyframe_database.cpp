@@ -102,10 +102,9 @@ FrameFeatures KeyframeDatabase::features(const uint8_t* rgb, const float* depth_
   return f;
 }
 
-std::vector<Eigen::Isometry3d> KeyframeDatabase::pnp_poses(const FrameEncoding& encoding, const FrameFeatures& live,
-                                                          const Intrinsics& k) const {
-  if (live.descriptors.empty()) return {};
-  // Which keyframes: the most similar by encoding, and the newest (the camera was there last).
+// The keyframes whose features are matched: the most similar by encoding, and the newest (the
+// camera was there last).
+std::vector<size_t> KeyframeDatabase::pnp_keyframes(const FrameEncoding& encoding) const {
   std::vector<std::pair<double, size_t>> scored;
   for (size_t i = 0; i < keyframes_.size(); ++i) scored.emplace_back(dissimilarity(encoding, keyframes_[i].encoding), i);
   std::sort(scored.begin(), scored.end());
@@ -115,6 +114,56 @@ std::vector<Eigen::Isometry3d> KeyframeDatabase::pnp_poses(const FrameEncoding& 
     const size_t newest = keyframes_.size() - 1 - size_t(i);
     if (std::find(chosen.begin(), chosen.end(), newest) == chosen.end()) chosen.push_back(newest);
   }
+  return chosen;
+}
+
+std::optional<KeyframePose> KeyframeDatabase::pnp_pose(const FrameEncoding& encoding, const FrameFeatures& live,
+                                                       const Intrinsics& k) const {
+  if (live.descriptors.empty()) return std::nullopt;
+  cv::BFMatcher matcher(cv::NORM_HAMMING);
+  // Every chosen keyframe's matches at once, their points in world coordinates: one pose that
+  // every keyframe's points support, which averages out the keyframes' own pose errors.
+  std::vector<cv::Point3f> object;  // world
+  std::vector<cv::Point2f> image;
+  for (size_t i : pnp_keyframes(encoding)) {
+    const Keyframe& kf = keyframes_[i];
+    if (kf.features.descriptors.empty()) continue;
+    std::vector<std::vector<cv::DMatch>> matches;
+    matcher.knnMatch(live.descriptors, kf.features.descriptors, matches, 2);
+    for (const auto& m : matches)
+      if (m.size() == 2 && m[0].distance < params_.match_ratio * m[1].distance) {
+        const cv::Point3f& p = kf.features.points_camera[size_t(m[0].trainIdx)];
+        const Eigen::Vector3d w = kf.T_world_camera * Eigen::Vector3d(p.x, p.y, p.z);
+        object.emplace_back(float(w.x()), float(w.y()), float(w.z()));
+        image.push_back(live.pixels[size_t(m[0].queryIdx)]);
+      }
+  }
+  if (int(object.size()) < params_.min_pnp_inliers) return std::nullopt;
+  const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+  cv::Mat rvec, tvec;
+  std::vector<int> inliers;
+  if (!cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, 200, float(params_.max_reprojection_px), 0.99,
+                          inliers, cv::SOLVEPNP_EPNP) ||
+      int(inliers.size()) < params_.min_pnp_inliers)
+    return std::nullopt;
+  std::vector<cv::Point3f> object_in;
+  std::vector<cv::Point2f> image_in;
+  for (int i : inliers) object_in.push_back(object[size_t(i)]), image_in.push_back(image[size_t(i)]);
+  cv::solvePnPRefineLM(object_in, image_in, K, cv::noArray(), rvec, tvec);  // EPnP's minimal fit, refined on every inlier
+  cv::Matx33d R;
+  cv::Rodrigues(rvec, R);
+  Eigen::Isometry3d T_live_world = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) T_live_world.linear()(r, c) = R(r, c);
+    T_live_world.translation()(r) = tvec.at<double>(r);
+  }
+  return KeyframePose{T_live_world.inverse(), int(inliers.size())};
+}
+
+std::vector<Eigen::Isometry3d> KeyframeDatabase::pnp_poses(const FrameEncoding& encoding, const FrameFeatures& live,
+                                                          const Intrinsics& k) const {
+  if (live.descriptors.empty()) return {};
+  const std::vector<size_t> chosen = pnp_keyframes(encoding);
   const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
   cv::BFMatcher matcher(cv::NORM_HAMMING);
   std::vector<std::pair<int, Eigen::Isometry3d>> poses;  // (inliers, T_world_live)

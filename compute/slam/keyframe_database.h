@@ -12,6 +12,7 @@
 // and lost frames).
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -66,6 +67,12 @@ struct FrameEncoding {
   std::vector<float> depth_m;    // cols * rows, mean of the valid readings; 0 = too few valid
 };
 
+// A camera pose from features matched against keyframes (KeyframeDatabase::pnp_pose).
+struct KeyframePose {
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  int inliers = 0;  // RANSAC's inlier matches (a feature matched in several keyframes counts in each)
+};
+
 class KeyframeDatabase {
  public:
   explicit KeyframeDatabase(const KeyframeParams& params);  // throws cofusion::Error on bad params
@@ -83,15 +90,22 @@ class KeyframeDatabase {
   bool add_if_novel(const FrameEncoding& encoding, const std::function<FrameFeatures()>& features,
                     const Eigen::Isometry3d& T_world_camera);
   // Camera poses (T_world_camera) for a lost frame from its features matched against keyframes'
-  // (KeyframeParams::pnp_*), best supported first.
+  // (KeyframeParams::pnp_*), one per keyframe, best supported first.
   std::vector<Eigen::Isometry3d> pnp_poses(const FrameEncoding& encoding, const FrameFeatures& features,
                                            const Intrinsics& intrinsics) const;
+  // One camera pose (T_world_camera) from the frame's features matched against those of the same
+  // keyframes together (their points in world coordinates), RANSAC PnP refined on its inliers;
+  // nullopt without enough matches. Steadier than any one keyframe's pose where the keyframes'
+  // poses are each a little off (CameraCheckParams::keyframe_pull_gain).
+  std::optional<KeyframePose> pnp_pose(const FrameEncoding& encoding, const FrameFeatures& features,
+                                       const Intrinsics& intrinsics) const;
   // Poses of the at most `count` keyframes most similar to `encoding`, most similar first
   // (keyframes that are not comparable at all are left out).
   std::vector<Eigen::Isometry3d> nearest(const FrameEncoding& encoding, int count) const;
   size_t size() const { return keyframes_.size(); }
 
  private:
+  std::vector<size_t> pnp_keyframes(const FrameEncoding& encoding) const;
   struct Keyframe {
     FrameEncoding encoding;
     FrameFeatures features;

@@ -206,7 +206,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
   plan.regions = outlier_regions(seg, outlier, slots);
   int active_count = 0;
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
-  const bool camera_steady = !bg.tracking.failed && steady_motion(bg.motion) && camera_was_steady() &&
+  const bool camera_steady = !bg.tracking.failed && !bg.motion_refused && steady_motion(bg.motion) && camera_was_steady() &&
                              frame_ - last_recovery_frame_ >= params_.relocalisation.settle_frames;
   const std::vector<uint8_t> previous_candidates = std::move(spawn_candidate_);
   const std::vector<std::optional<Eigen::Vector3d>> previous_centroids = std::move(spawn_candidate_centroids_);

@@ -151,6 +151,63 @@ TEST(KeyframeDatabase, FeaturesLocateAMovedCameraByPnP) {
   EXPECT_TRUE(db.pnp_poses(db.encode(other.data(), depth.data(), k.width, k.height), db.features(other.data(), depth.data(), k), k).empty());
 }
 
+// pnp_pose: the matches of every keyframe at once, their points taken to world coordinates by
+// each keyframe's pose. Two keyframes of a textured wall, 2 m away, from a camera turned and moved
+// in the world; the live camera halfway between them.
+TEST(KeyframeDatabase, FeaturesOfSeveralKeyframesLocateTheCameraTogether) {
+  const Intrinsics k{525.0, 525.0, 319.5, 239.5, 640, 480};
+  cv::theRNG().state = 20261126;  // the same wall in every run, alone or after other tests
+  cv::Mat texture(60, 80, CV_8UC1);
+  cv::randu(texture, 0, 256);
+  cv::Mat wall;
+  cv::resize(texture, wall, cv::Size(720, 480), 0, 0, cv::INTER_CUBIC);
+  const auto view = [&](int offset_px) {  // the wall seen from a camera offset_px * depth / fx to the left
+    std::vector<uint8_t> rgb(size_t(k.width) * size_t(k.height) * 3);
+    for (int y = 0; y < k.height; ++y)
+      for (int x = 0; x < k.width; ++x)
+        for (int c = 0; c < 3; ++c) rgb[3 * (size_t(y) * size_t(k.width) + size_t(x)) + size_t(c)] = wall.at<uint8_t>(y, x + 40 - offset_px);
+    return rgb;
+  };
+  const double depth_m = 2.0;
+  const int step_px = 16;
+  const double step_m = step_px * depth_m / k.fx;
+  const std::vector<float> depth(size_t(k.width) * size_t(k.height), float(depth_m));
+  Eigen::Isometry3d T_world_a = Eigen::Isometry3d::Identity();
+  T_world_a.rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()));
+  T_world_a.pretranslate(Eigen::Vector3d(0.5, -0.2, 1.0));
+  const auto left = [](double x) { return translated(-x); };
+  // Keyframe b's pose is 1 cm off (its tracking's error): the joint pose lies between the two.
+  const double b_error_m = 0.01;
+  KeyframeDatabase db{KeyframeParams{}};
+  const std::vector<uint8_t> a_rgb = view(0), b_rgb = view(2 * step_px), live_rgb = view(step_px);
+  ASSERT_TRUE(db.add_if_novel(db.encode(a_rgb.data(), depth.data(), k.width, k.height),
+                              [&] { return db.features(a_rgb.data(), depth.data(), k); }, T_world_a));
+  ASSERT_TRUE(db.add_if_novel(db.encode(b_rgb.data(), depth.data(), k.width, k.height),
+                              [&] { return db.features(b_rgb.data(), depth.data(), k); },
+                              T_world_a * left(2 * step_m - b_error_m)));
+  const slam::FrameEncoding live_encoding = db.encode(live_rgb.data(), depth.data(), k.width, k.height);
+  const slam::FrameFeatures live = db.features(live_rgb.data(), depth.data(), k);
+  const auto pose = db.pnp_pose(live_encoding, live, k);
+  ASSERT_TRUE(pose.has_value());
+  const Eigen::Isometry3d T_a_live = T_world_a.inverse() * pose->T_world_camera;
+  const double error_x = T_a_live.translation().x() - (-step_m);  // b pulls it to the right
+  EXPECT_GT(error_x, 0.1 * b_error_m);
+  EXPECT_LT(error_x, 0.9 * b_error_m);
+  // A flat wall trades a little rotation about x for translation along y (4 mrad: 8 mm at 2 m).
+  EXPECT_NEAR(T_a_live.translation().y(), 0.0, 0.01);
+  EXPECT_NEAR(T_a_live.translation().z(), 0.0, 0.01);
+  EXPECT_LT(Eigen::AngleAxisd(T_a_live.rotation()).angle(), 0.01);
+  // Each keyframe alone gives its own answer (the relocaliser's pnp_poses).
+  EXPECT_EQ(db.pnp_poses(live_encoding, live, k).size(), 2u);
+  // Both keyframes' matches support it: more inliers than either keyframe's features alone hold.
+  EXPECT_GT(pose->inliers, int(live.pixels.size()));
+  // Features of an unrelated view find nothing.
+  std::vector<uint8_t> other(live_rgb.size());
+  cv::Mat noise(k.height, k.width * 3, CV_8UC1, other.data());
+  cv::randu(noise, 0, 256);
+  EXPECT_FALSE(db.pnp_pose(db.encode(other.data(), depth.data(), k.width, k.height), db.features(other.data(), depth.data(), k), k));
+}
+
 TEST(KeyframeDatabase, RejectsBadParameters) {
   KeyframeParams p;
   p.cols = 0;
