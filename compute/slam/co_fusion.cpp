@@ -421,7 +421,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   tbb::task_group keyframe_pose_job;
   std::optional<KeyframePose> keyframe_pose;
   frame_keyframe_pose_ = nullptr;
-  if (frame_ > 0 && !lost_ && params_.camera_check.enabled && keyframes_.size() > 0 && keyframe_pull_gain() > 0) {
+  frame_pull_gain_ = keyframe_pull_gain(excluded);
+  if (frame_ > 0 && !lost_ && params_.camera_check.enabled && keyframes_.size() > 0 && frame_pull_gain_ > 0) {
     keyframe_pose_job.run([&, depth_m] { keyframe_pose = keyframe_camera_pose(depth_m); });
     frame_keyframe_pose_ = [&] {
       keyframe_pose_job.wait();
@@ -723,20 +724,19 @@ std::string CoFusion::take_keyframe_pose(Model& bg, const CameraFits& f, const E
 // features' pose (where enough matches support it) by the gain times the share of excluded
 // pixels; the next frame's guess continues the tracked motion.
 void CoFusion::pull_towards_keyframes(Model& bg, const float* depth_m) const {
-  const double gain = keyframe_pull_gain();
-  if (gain <= 0) return;
+  if (frame_pull_gain_ <= 0) return;
   const auto features = frame_keyframe_pose(depth_m);
   if (!features || features->inliers < params_.camera_check.keyframe_pull_min_inliers) return;
   bg.velocity_motion = bg.motion;
-  bg.motion = motion_towards(bg.motion, T_world_camera_.inverse() * features->T_world_camera, gain);
+  bg.motion = motion_towards(bg.motion, T_world_camera_.inverse() * features->T_world_camera, frame_pull_gain_);
 }
 
-// This frame's fraction of the way towards the keyframes' pose (CameraCheckParams::keyframe_pull_gain
-// times the excluded share of the image, at most 1).
-double CoFusion::keyframe_pull_gain() const {
-  if (!frame_excluded_ || frame_excluded_->empty()) return 0;
-  const auto excluded = std::count_if(frame_excluded_->begin(), frame_excluded_->end(), [](uint8_t e) { return e != 0; });
-  return std::min(1.0, params_.camera_check.keyframe_pull_gain * double(excluded) / double(frame_excluded_->size()));
+// The frame's fraction of the way towards the keyframes' pose (CameraCheckParams::keyframe_pull_gain
+// times the share of excluded pixels, at most 1; 0 without masks).
+double CoFusion::keyframe_pull_gain(const std::vector<uint8_t>& excluded) const {
+  if (excluded.empty()) return 0;
+  const auto n = std::count_if(excluded.begin(), excluded.end(), [](uint8_t e) { return e != 0; });
+  return std::min(1.0, params_.camera_check.keyframe_pull_gain * double(n) / double(excluded.size()));
 }
 
 // keyframe_camera_pose: the CPU job's, where process() started one.
@@ -869,7 +869,7 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();
   ++frame_;
   semantic_ = nullptr;  // the caller's, valid during process() only
-  frame_rgb_ = nullptr, frame_excluded_ = nullptr, frame_keyframe_pose_ = nullptr;
+  frame_rgb_ = nullptr, frame_excluded_ = nullptr, frame_keyframe_pose_ = nullptr, frame_pull_gain_ = 0;
 }
 
 std::vector<ModelSnapshot> CoFusion::models() const {

@@ -379,7 +379,7 @@ class CoFusion {
   void retry_camera_tracking(Model& bg, const float* depth_m, std::optional<CameraFits>& fits);
   bool tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f);
   std::string check_camera_motion(Model& bg, const float* depth_m, const std::optional<CameraFits>& fits);
-  double keyframe_pull_gain() const;
+  double keyframe_pull_gain(const std::vector<uint8_t>& excluded) const;
   void pull_towards_keyframes(Model& bg, const float* depth_m) const;
   std::optional<KeyframePose> frame_keyframe_pose(const float* depth_m) const;
   std::optional<KeyframePose> keyframe_camera_pose(const float* depth_m) const;
@@ -470,6 +470,7 @@ class CoFusion {
   // This frame's keyframes' pose where a CPU job computes it while the GPU tracks (process() only;
   // empty: computed where it is needed).
   std::function<std::optional<KeyframePose>()> frame_keyframe_pose_;
+  double frame_pull_gain_ = 0;  // CameraCheckParams::keyframe_pull_gain's fraction this frame
   double last_camera_fit_ = 0;
   // The last frame's refused tracked pose (T_world_camera) and how many refused frames in a row
   // agreed with the one before (CameraCheckParams::agreeing_frames).

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
@@ -12,6 +13,49 @@
 #include "common/se3.h"
 
 namespace cofusion::slam {
+
+namespace {
+
+// The best match of each live descriptor in the keyframe's that passes Lowe's ratio test.
+std::vector<cv::DMatch> ratio_matches(const cv::Mat& live, const cv::Mat& keyframe, double ratio) {
+  cv::BFMatcher matcher(cv::NORM_HAMMING);
+  std::vector<std::vector<cv::DMatch>> matches;
+  matcher.knnMatch(live, keyframe, matches, 2);
+  std::vector<cv::DMatch> good;
+  for (const auto& m : matches)
+    if (m.size() == 2 && m[0].distance < ratio * m[1].distance) good.push_back(m[0]);
+  return good;
+}
+
+// RANSAC EPnP: the points' frame in the camera (rvec, tvec) and the inlier matches; nullopt with
+// fewer than min_inliers.
+struct PnpFit {
+  cv::Mat rvec, tvec;
+  std::vector<int> inliers;
+};
+std::optional<PnpFit> ransac_pnp(const std::vector<cv::Point3f>& object, const std::vector<cv::Point2f>& image,
+                                 const cv::Matx33d& K, double max_reprojection_px, int min_inliers) {
+  if (int(object.size()) < min_inliers) return std::nullopt;
+  PnpFit fit;
+  if (!cv::solvePnPRansac(object, image, K, cv::noArray(), fit.rvec, fit.tvec, false, 200, float(max_reprojection_px), 0.99,
+                          fit.inliers, cv::SOLVEPNP_EPNP) ||
+      int(fit.inliers.size()) < min_inliers)
+    return std::nullopt;
+  return fit;
+}
+
+Eigen::Isometry3d isometry(const cv::Mat& rvec, const cv::Mat& tvec) {
+  cv::Matx33d R;
+  cv::Rodrigues(rvec, R);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) T.linear()(r, c) = R(r, c);
+    T.translation()(r) = tvec.at<double>(r);
+  }
+  return T;
+}
+
+}  // namespace
 
 KeyframeDatabase::KeyframeDatabase(const KeyframeParams& params) : params_(params) {
   const auto bad = [](const char* why) { throw Error(std::string("invalid keyframe parameter: ") + why); };
@@ -120,7 +164,6 @@ std::vector<size_t> KeyframeDatabase::pnp_keyframes(const FrameEncoding& encodin
 std::optional<KeyframePose> KeyframeDatabase::pnp_pose(const FrameEncoding& encoding, const FrameFeatures& live,
                                                        const Intrinsics& k) const {
   if (live.descriptors.empty()) return std::nullopt;
-  cv::BFMatcher matcher(cv::NORM_HAMMING);
   // Every chosen keyframe's matches at once, their points in world coordinates: one pose that
   // every keyframe's points support, which averages out the keyframes' own pose errors.
   std::vector<cv::Point3f> object;  // world
@@ -128,72 +171,39 @@ std::optional<KeyframePose> KeyframeDatabase::pnp_pose(const FrameEncoding& enco
   for (size_t i : pnp_keyframes(encoding)) {
     const Keyframe& kf = keyframes_[i];
     if (kf.features.descriptors.empty()) continue;
-    std::vector<std::vector<cv::DMatch>> matches;
-    matcher.knnMatch(live.descriptors, kf.features.descriptors, matches, 2);
-    for (const auto& m : matches)
-      if (m.size() == 2 && m[0].distance < params_.match_ratio * m[1].distance) {
-        const cv::Point3f& p = kf.features.points_camera[size_t(m[0].trainIdx)];
-        const Eigen::Vector3d w = kf.T_world_camera * Eigen::Vector3d(p.x, p.y, p.z);
-        object.emplace_back(float(w.x()), float(w.y()), float(w.z()));
-        image.push_back(live.pixels[size_t(m[0].queryIdx)]);
-      }
+    for (const cv::DMatch& m : ratio_matches(live.descriptors, kf.features.descriptors, params_.match_ratio)) {
+      const cv::Point3f& p = kf.features.points_camera[size_t(m.trainIdx)];
+      const Eigen::Vector3d w = kf.T_world_camera * Eigen::Vector3d(p.x, p.y, p.z);
+      object.emplace_back(float(w.x()), float(w.y()), float(w.z()));
+      image.push_back(live.pixels[size_t(m.queryIdx)]);
+    }
   }
-  if (int(object.size()) < params_.min_pnp_inliers) return std::nullopt;
   const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
-  cv::Mat rvec, tvec;
-  std::vector<int> inliers;
-  if (!cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, 200, float(params_.max_reprojection_px), 0.99,
-                          inliers, cv::SOLVEPNP_EPNP) ||
-      int(inliers.size()) < params_.min_pnp_inliers)
-    return std::nullopt;
+  std::optional<PnpFit> fit = ransac_pnp(object, image, K, params_.max_reprojection_px, params_.min_pnp_inliers);
+  if (!fit) return std::nullopt;
   std::vector<cv::Point3f> object_in;
   std::vector<cv::Point2f> image_in;
-  for (int i : inliers) object_in.push_back(object[size_t(i)]), image_in.push_back(image[size_t(i)]);
-  cv::solvePnPRefineLM(object_in, image_in, K, cv::noArray(), rvec, tvec);  // EPnP's minimal fit, refined on every inlier
-  cv::Matx33d R;
-  cv::Rodrigues(rvec, R);
-  Eigen::Isometry3d T_live_world = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) T_live_world.linear()(r, c) = R(r, c);
-    T_live_world.translation()(r) = tvec.at<double>(r);
-  }
-  return KeyframePose{T_live_world.inverse(), int(inliers.size())};
+  for (int i : fit->inliers) object_in.push_back(object[size_t(i)]), image_in.push_back(image[size_t(i)]);
+  cv::solvePnPRefineLM(object_in, image_in, K, cv::noArray(), fit->rvec, fit->tvec);  // EPnP's minimal fit, refined on every inlier
+  return KeyframePose{isometry(fit->rvec, fit->tvec).inverse(), int(fit->inliers.size())};
 }
 
 std::vector<Eigen::Isometry3d> KeyframeDatabase::pnp_poses(const FrameEncoding& encoding, const FrameFeatures& live,
                                                           const Intrinsics& k) const {
   if (live.descriptors.empty()) return {};
-  const std::vector<size_t> chosen = pnp_keyframes(encoding);
   const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
-  cv::BFMatcher matcher(cv::NORM_HAMMING);
   std::vector<std::pair<int, Eigen::Isometry3d>> poses;  // (inliers, T_world_live)
-  for (size_t i : chosen) {
+  for (size_t i : pnp_keyframes(encoding)) {
     const Keyframe& kf = keyframes_[i];
     if (kf.features.descriptors.rows < params_.min_pnp_inliers) continue;
-    std::vector<std::vector<cv::DMatch>> matches;
-    matcher.knnMatch(live.descriptors, kf.features.descriptors, matches, 2);
     std::vector<cv::Point3f> object;
     std::vector<cv::Point2f> image;
-    for (const auto& m : matches)
-      if (m.size() == 2 && m[0].distance < params_.match_ratio * m[1].distance) {
-        object.push_back(kf.features.points_camera[size_t(m[0].trainIdx)]);
-        image.push_back(live.pixels[size_t(m[0].queryIdx)]);
-      }
-    if (int(object.size()) < params_.min_pnp_inliers) continue;
-    cv::Mat rvec, tvec;
-    std::vector<int> inliers;
-    if (!cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, 200, float(params_.max_reprojection_px),
-                            0.99, inliers, cv::SOLVEPNP_EPNP) ||
-        int(inliers.size()) < params_.min_pnp_inliers)
-      continue;
-    cv::Matx33d R;
-    cv::Rodrigues(rvec, R);
-    Eigen::Isometry3d T_live_keyframe = Eigen::Isometry3d::Identity();
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) T_live_keyframe.linear()(r, c) = R(r, c);
-      T_live_keyframe.translation()(r) = tvec.at<double>(r);
+    for (const cv::DMatch& m : ratio_matches(live.descriptors, kf.features.descriptors, params_.match_ratio)) {
+      object.push_back(kf.features.points_camera[size_t(m.trainIdx)]);
+      image.push_back(live.pixels[size_t(m.queryIdx)]);
     }
-    poses.emplace_back(int(inliers.size()), kf.T_world_camera * T_live_keyframe.inverse());
+    const std::optional<PnpFit> fit = ransac_pnp(object, image, K, params_.max_reprojection_px, params_.min_pnp_inliers);
+    if (fit) poses.emplace_back(int(fit->inliers.size()), kf.T_world_camera * isometry(fit->rvec, fit->tvec).inverse());
   }
   std::stable_sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   std::vector<Eigen::Isometry3d> out;

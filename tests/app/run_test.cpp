@@ -230,7 +230,7 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 // camera ATE <= 3 cm and no model for a person (the bounds; measured 2.85 cm, first 300
 // frames 2.59 cm, none). Both rest on the keyframes' features: refused motions move halfway towards
 // the pose they give (CameraCheckParams::keyframe_pose_gain), and every other frame by the share
-// of the image the people cover (keyframe_pull_gain; 3.32 and 3.51 cm without it). The first 300
+// of the image the people cover (keyframe_pull_gain; 3.32 and 3.51 cm before it). The first 300
 // frames (the office, chairs and monitors as resting models, the first people walking through)
 // stay within 3 cm in both modes.
 struct BonnRun {
