@@ -190,11 +190,16 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("reactivate_max_rms_m", c.reactivate_max_rms_m)
       .field("object_min_inlier_ratio", c.object_min_inlier_ratio)
       .field("object_outline_photometric", c.object_outline_photometric)
+      .field("object_photometric_weight", c.object_photometric_weight)
+      .field("object_icp_noise_reference_depth_m", c.object_icp_noise_reference_depth_m)
       .field("object_iterations_per_level", c.object_iterations_per_level);
   require_iteration_counts(c.object_iterations_per_level, s.where() + ".object_iterations_per_level");
   const std::string& where = s.where();
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
     throw Error(where + ".spawn_min_area_fraction: must be in (0, 1)");
+  if (!(c.object_photometric_weight >= 0)) throw Error(where + ".object_photometric_weight: must be >= 0");
+  if (!(c.object_icp_noise_reference_depth_m >= 0))
+    throw Error(where + ".object_icp_noise_reference_depth_m: must be >= 0");
   if (c.max_active_models < 1 || c.max_active_models > 31) throw Error(where + ".max_active_models: must be 1..31");
   if (c.spawn_steady_frames < 1 || c.spawn_steady_frames > 16)
     throw Error(where + ".spawn_steady_frames: must be 1..16 (the camera history's length)");

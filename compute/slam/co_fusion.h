@@ -169,6 +169,19 @@ struct LifecycleParams {
   double object_min_inlier_ratio = 0.05;
   // Object models also track with their outline (TrackerParams::outline_photometric).
   bool object_outline_photometric = true;
+  // Object models' photometric weight (TrackerParams::photometric_weight, the paper's lambda; the
+  // background keeps its own). lambda = (sigma_icp / sigma_rgb)^2 weighs each term by its noise:
+  // 2 mm of depth noise at 1 m (shared/depth_noise.h) against 2.5/255 of intensity noise gives
+  // 0.04. The background's 1.0 widens the basin for fast camera turns; an object's motion is
+  // guessed from its last one, and its colours are fused from its own tracked poses, so a strong
+  // photometric term lets the texture's fused lag hold the geometry back: a weakly textured can
+  // turning about its axis drifted 16 mm at 1.0, 5 mm at 0.05 (docs/experiments.md). 0 loses
+  // boxes that slide along a face (nothing but texture sees that motion).
+  double object_photometric_weight = 0.05;
+  // That ratio holds at this depth; object ICP pairs deeper than it count by their depth noise
+  // (TrackerParams::icp_noise_reference_depth_m), so that far, noisy depth does not outweigh the
+  // colour (a wall patch at 3.7 m tracked by its plane alone slides along it). 0 = unweighted.
+  double object_icp_noise_reference_depth_m = 1.0;
   // Object models' Gauss-Newton iterations per level (TrackerParams::iterations_per_level; the
   // background's default is {1, 4, 6, 10}). Objects are small, so their iterations are cheap (3 ms
   // at full resolution), and they need them: with fewer, each frame stops short of the optimum and

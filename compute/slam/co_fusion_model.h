@@ -96,6 +96,8 @@ struct CoFusion::Model {
     if (id != 0) {
       t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
       t.outline_photometric = p.lifecycle.object_outline_photometric;
+      t.photometric_weight = p.lifecycle.object_photometric_weight;
+      t.icp_noise_reference_depth_m = p.lifecycle.object_icp_noise_reference_depth_m;
       t.iterations_per_level = p.lifecycle.object_iterations_per_level;
     } else if (p.camera_check.enabled && p.camera_check.photometric_weight > 0) {
       t.photometric_weight = p.camera_check.photometric_weight;

@@ -224,11 +224,12 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 
 // Issue "Real dynamic scenes" on the Bonn RGB-D Dynamic `crowd` recording (464 frames, people
 // walking in front of a hand-held camera, detector masks), default settings: camera ATE <= 5 cm,
-// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 2.84 cm, 18
-// frames refused (first 300 frames 2.47 cm), no model from a person: people the detector misses,
+// no frame lost and at most 3 models spawned from people (the issue's bounds; measured 2.82 cm, 17
+// frames refused (first 300 frames 2.49 cm), no model from a person: people the detector misses,
 // entering at the image's edge, fail the rigidity check at spawn). With `--segmentation both`
-// camera ATE <= 3 cm and no model for a person (the issue's bounds; measured 2.85 cm, first 300
-// frames 2.59 cm, none). Both rest on the keyframes' features: refused motions move halfway towards
+// camera ATE <= 3 cm and no model for a person (the issue's bounds; measured 2.95 cm, first 300
+// frames 2.62 cm, none; runs are deterministic, and the crowd frames tip a few millimetres either
+// way at any change of tracking, so this margin is thin). Both rest on the keyframes' features: refused motions move halfway towards
 // the pose they give (CameraCheckParams::keyframe_pose_gain), and every other frame by the share
 // of the image the people cover (keyframe_pull_gain; 3.32 and 3.51 cm before it). The first 300
 // frames (the office, chairs and monitors as resting models, the first people walking through)
@@ -553,6 +554,18 @@ TEST(RunCommand, KeyframeGainConfigsAreReadAndChecked) {
   const Result r = run_with_config(dir, "config.json", R"({"camera_check": {"keyframe_pull_min_inliers": -1}})");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("keyframe_pull_min_inliers >= 0")) << r.output;
+}
+
+TEST(RunCommand, ObjectPhotometricWeightIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  const Result r = run_with_config(dir, "config.json", R"({"lifecycle": {"object_photometric_weight": -0.1}})");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("object_photometric_weight: must be >= 0")) << r.output;
+  const Result depth = run_with_config(dir, "depth.json", R"({"lifecycle": {"object_icp_noise_reference_depth_m": -1}})");
+  EXPECT_NE(depth.exit_code, 0);
+  EXPECT_THAT(depth.output, HasSubstr("object_icp_noise_reference_depth_m: must be >= 0")) << depth.output;
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"object_photometric_weight": 1}})", "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
 // --screenshot offscreen (headless) and from the window under a virtual X server: a PNG of the
