@@ -513,7 +513,8 @@ CameraState CoFusion::track_or_relocalise(const std::vector<Model*>& active, con
     stage("track");
     return camera;
   }
-  const CameraState camera = relocalise(*active.front(), encoding, keyframes_.features(rgb, depth_m, intrinsics_))
+  const std::vector<float> depth_not_excluded = depth_where(depth_m, [&](size_t i) { return !excluded_pixel(i); });
+  const CameraState camera = relocalise(*active.front(), encoding, keyframes_.features(rgb, depth_not_excluded.data(), intrinsics_))
                                  ? CameraState::kRecovered
                                  : CameraState::kLost;
   if (camera == CameraState::kRecovered) out.events.push_back("frame " + std::to_string(frame_) + ": camera relocalised");
@@ -739,6 +740,20 @@ double CoFusion::keyframe_pull_gain(const std::vector<uint8_t>& excluded) const 
   return std::min(1.0, params_.camera_check.keyframe_pull_gain * double(n) / double(excluded.size()));
 }
 
+// The frame's depth where `keep(pixel index)` holds, 0 (no reading) elsewhere.
+std::vector<float> CoFusion::depth_where(const float* depth_m, const std::function<bool(size_t)>& keep) const {
+  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
+  std::vector<float> depth(depth_m, depth_m + n);
+  for (size_t i = 0; i < n; ++i)
+    if (!keep(i)) depth[i] = 0.0f;
+  return depth;
+}
+
+// Whether this frame's excluded classes (people) cover pixel i.
+bool CoFusion::excluded_pixel(size_t i) const {
+  return frame_excluded_ && i < frame_excluded_->size() && (*frame_excluded_)[i];
+}
+
 // keyframe_camera_pose: the CPU job's, where process() started one.
 std::optional<KeyframePose> CoFusion::frame_keyframe_pose(const float* depth_m) const {
   return frame_keyframe_pose_ ? frame_keyframe_pose_() : keyframe_camera_pose(depth_m);
@@ -748,11 +763,7 @@ std::optional<KeyframePose> CoFusion::frame_keyframe_pose(const float* depth_m) 
 // the keyframes' together (KeyframeDatabase::pnp_pose); nullopt without keyframes or a match.
 std::optional<KeyframePose> CoFusion::keyframe_camera_pose(const float* depth_m) const {
   if (!frame_rgb_ || keyframes_.size() == 0) return std::nullopt;
-  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
-  std::vector<float> depth(depth_m, depth_m + n);
-  if (frame_excluded_ && frame_excluded_->size() == n)
-    for (size_t i = 0; i < n; ++i)
-      if ((*frame_excluded_)[i]) depth[i] = 0.0f;
+  const std::vector<float> depth = depth_where(depth_m, [&](size_t i) { return !excluded_pixel(i); });
   const FrameEncoding encoding = keyframes_.encode(frame_rgb_, depth.data(), intrinsics_.width, intrinsics_.height);
   return keyframes_.pnp_pose(encoding, keyframes_.features(frame_rgb_, depth.data(), intrinsics_), intrinsics_);
 }
@@ -855,8 +866,18 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   out.labels.assign(n, 0xFFFF);
   if (camera != CameraState::kLost)
     for (size_t i = 0; i < n; ++i) out.labels[i] = slots_[i] < kMoverSlot ? slot_to_id[slots_[i]] : uint16_t{0xFFFF};
-  if (camera == CameraState::kTracking)
-    keyframes_.add_if_novel(encoding, [&] { return keyframes_.features(rgb, depth_m, intrinsics_); }, T_world_camera_);
+  // A keyframe's features are stored as world points, so only what stands still gives them: the
+  // background's pixels and those of resting models. A person or a moving object would be matched
+  // where it no longer is.
+  if (camera == CameraState::kTracking) {
+    std::array<bool, kSlots> still{};
+    for (const auto& m : models_)
+      if (m->slot >= 0 && m->slot < kSlots && (m->id == 0 || m->resting)) still[size_t(m->slot)] = true;
+    keyframes_.add_if_novel(
+        encoding,
+        [&] { return keyframes_.features(rgb, depth_where(depth_m, [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; }).data(), intrinsics_); },
+        T_world_camera_);
+  }
   const Model& bg = *models_.front();
   if (camera == CameraState::kTracking && frame_ > 0) {
     recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
