@@ -873,10 +873,11 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
     std::array<bool, kSlots> still{};
     for (const auto& m : models_)
       if (m->slot >= 0 && m->slot < kSlots && (m->id == 0 || m->resting)) still[size_t(m->slot)] = true;
-    keyframes_.add_if_novel(
-        encoding,
-        [&] { return keyframes_.features(rgb, depth_where(depth_m, [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; }).data(), intrinsics_); },
-        T_world_camera_);
+    const auto still_features = [&] {
+      const std::vector<float> depth = depth_where(depth_m, [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; });
+      return keyframes_.features(rgb, depth.data(), intrinsics_);
+    };
+    keyframes_.add_if_novel(encoding, still_features, T_world_camera_);
   }
   const Model& bg = *models_.front();
   if (camera == CameraState::kTracking && frame_ > 0) {
