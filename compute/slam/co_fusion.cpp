@@ -30,6 +30,16 @@ double mean_cost(double icp_r2, double icp_n, double rgb_r2, double rgb_n, doubl
   return n > 0 ? (icp_r2 + lambda * rgb_r2) / n : 0.0;
 }
 
+// The n pixels' depth where `keep(pixel index)` holds, 0 (no reading) elsewhere (a template: it
+// runs per pixel, every frame with excluded pixels).
+template <typename Keep>
+std::vector<float> depth_where(const float* depth_m, size_t n, const Keep& keep) {
+  std::vector<float> depth(depth_m, depth_m + n);
+  for (size_t i = 0; i < n; ++i)
+    if (!keep(i)) depth[i] = 0.0f;
+  return depth;
+}
+
 // The same for a tracking's last iteration.
 double mean_alignment_cost(const TrackingResult& t, double lambda) {
   return mean_cost(t.icp_rms_m * t.icp_rms_m * t.icp_inliers, t.icp_inliers, t.rgb_rms * t.rgb_rms * t.rgb_residuals,
@@ -513,7 +523,7 @@ CameraState CoFusion::track_or_relocalise(const std::vector<Model*>& active, con
     stage("track");
     return camera;
   }
-  const std::vector<float> depth_not_excluded = depth_where(depth_m, [&](size_t i) { return !excluded_pixel(i); });
+  const std::vector<float> depth_not_excluded = depth_outside_excluded(depth_m);
   const CameraState camera = relocalise(*active.front(), encoding, keyframes_.features(rgb, depth_not_excluded.data(), intrinsics_))
                                  ? CameraState::kRecovered
                                  : CameraState::kLost;
@@ -740,18 +750,11 @@ double CoFusion::keyframe_pull_gain(const std::vector<uint8_t>& excluded) const 
   return std::min(1.0, params_.camera_check.keyframe_pull_gain * double(n) / double(excluded.size()));
 }
 
-// The frame's depth where `keep(pixel index)` holds, 0 (no reading) elsewhere.
-std::vector<float> CoFusion::depth_where(const float* depth_m, const std::function<bool(size_t)>& keep) const {
-  const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
-  std::vector<float> depth(depth_m, depth_m + n);
-  for (size_t i = 0; i < n; ++i)
-    if (!keep(i)) depth[i] = 0.0f;
-  return depth;
-}
-
-// Whether this frame's excluded classes (people) cover pixel i.
-bool CoFusion::excluded_pixel(size_t i) const {
-  return frame_excluded_ && i < frame_excluded_->size() && (*frame_excluded_)[i];
+// The frame's depth without the pixels of this frame's excluded classes (people).
+std::vector<float> CoFusion::depth_outside_excluded(const float* depth_m) const {
+  const size_t n = size_t(intrinsics_.width) * size_t(intrinsics_.height);
+  if (!frame_excluded_ || frame_excluded_->size() != n) return std::vector<float>(depth_m, depth_m + n);
+  return depth_where(depth_m, n, [&](size_t i) { return !(*frame_excluded_)[i]; });
 }
 
 // keyframe_camera_pose: the CPU job's, where process() started one.
@@ -763,7 +766,7 @@ std::optional<KeyframePose> CoFusion::frame_keyframe_pose(const float* depth_m) 
 // the keyframes' together (KeyframeDatabase::pnp_pose); nullopt without keyframes or a match.
 std::optional<KeyframePose> CoFusion::keyframe_camera_pose(const float* depth_m) const {
   if (!frame_rgb_ || keyframes_.size() == 0) return std::nullopt;
-  const std::vector<float> depth = depth_where(depth_m, [&](size_t i) { return !excluded_pixel(i); });
+  const std::vector<float> depth = depth_outside_excluded(depth_m);
   const FrameEncoding encoding = keyframes_.encode(frame_rgb_, depth.data(), intrinsics_.width, intrinsics_.height);
   return keyframes_.pnp_pose(encoding, keyframes_.features(frame_rgb_, depth.data(), intrinsics_), intrinsics_);
 }
@@ -874,7 +877,7 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
     for (const auto& m : models_)
       if (m->slot >= 0 && m->slot < kSlots && (m->id == 0 || m->resting)) still[size_t(m->slot)] = true;
     const auto still_features = [&] {
-      const std::vector<float> depth = depth_where(depth_m, [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; });
+      const std::vector<float> depth = depth_where(depth_m, slots_.size(), [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; });
       return keyframes_.features(rgb, depth.data(), intrinsics_);
     };
     keyframes_.add_if_novel(encoding, still_features, T_world_camera_);

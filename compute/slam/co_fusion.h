@@ -395,8 +395,7 @@ class CoFusion {
   double keyframe_pull_gain(const std::vector<uint8_t>& excluded) const;
   void pull_towards_keyframes(Model& bg, const float* depth_m) const;
   std::optional<KeyframePose> frame_keyframe_pose(const float* depth_m) const;
-  std::vector<float> depth_where(const float* depth_m, const std::function<bool(size_t)>& keep) const;
-  bool excluded_pixel(size_t i) const;
+  std::vector<float> depth_outside_excluded(const float* depth_m) const;
   std::optional<KeyframePose> keyframe_camera_pose(const float* depth_m) const;
   std::string take_keyframe_pose(Model& bg, const CameraFits& f, const Eigen::Isometry3d& T_world_features);
   void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);

@@ -229,11 +229,11 @@ TEST(RunCommand, TumFr2DeskDetectorModelsDeskObjectsWithTheirClassesSlow) {
 // entering at the image's edge, fail the rigidity check at spawn). With `--segmentation both`
 // camera ATE <= 3 cm and no model for a person (the bounds; measured 2.86 cm, first 300
 // frames 2.62 cm, none; runs are deterministic, but the crowd frames tip a few millimetres either
-// way at any change of tracking, so this margin is thin). Both rest on the keyframes' features: refused motions move halfway towards
-// the pose they give (CameraCheckParams::keyframe_pose_gain), and every other frame by the share
-// of the image the people cover (keyframe_pull_gain; 3.32 and 3.51 cm before it). The first 300
-// frames (the office, chairs and monitors as resting models, the first people walking through)
-// stay within 3 cm in both modes.
+// way at any change of tracking, so this margin is thin). Both rest on the keyframes' features:
+// refused motions move halfway towards the pose they give (CameraCheckParams::keyframe_pose_gain),
+// and every other frame by the share of the image the people cover (keyframe_pull_gain; 3.32 and
+// 3.51 cm before it). The first 300 frames (the office, chairs and monitors as resting models, the
+// first people walking through) stay within 3 cm in both modes.
 struct BonnRun {
   double ate_m = 0;
   double first_300_ate_m = 0;  // of the first 300 frames alone (aligned on them)
