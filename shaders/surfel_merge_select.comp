@@ -34,9 +34,11 @@ uint merge_target(uint i) {
   const int cx = int(floor(u)), cy = int(floor(v)), R = int(p.window_cells);
   uint best = MERGE_NONE, last = MERGE_NONE;  // last: the previous cell's surfel (mostly the same)
   float best_d2 = 1e30;
-  for (int y = max(cy - R, 0); y <= min(cy + R, int(grid_height) - 1); ++y) {
-    for (int x = max(cx - R, 0); x <= min(cx + R, int(grid_width) - 1); ++x) {
-      if (!cell_fused(x, y)) continue;
+  const int step = int(max(p.window_step, 1u));
+  for (int y = cy - R; y <= cy + R; y += step) {
+    if (y < 0 || y >= int(grid_height)) continue;
+    for (int x = cx - R; x <= cx + R; x += step) {
+      if (x < 0 || x >= int(grid_width) || !cell_fused(x, y)) continue;
       const uint j = texel_uint(index_map, 2u * (uint(y) * grid_width + uint(x)));
       if (j == 0xFFFFFFFFu || j == i || j == last) continue;
       last = j;

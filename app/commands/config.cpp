@@ -129,6 +129,7 @@ void read_fusion(Section& s, slam::FusionParams& c) {
       .field("free_space_margin_rel", c.free_space_margin_rel)
       .field("free_space_penalty", c.free_space_penalty)
       .field("merge_window_cells", c.merge_window_cells)
+      .field("merge_window_step_cells", c.merge_window_step_cells)
       .field("merge_distance_rel", c.merge_distance_rel)
       .field("merge_max_normal_angle_deg", c.merge_max_normal_angle_deg)
       .field("merge_max_source_confidence", c.merge_max_source_confidence)
@@ -140,6 +141,8 @@ void read_fusion(Section& s, slam::FusionParams& c) {
   if (c.new_surfel_clearance_cells < 0 || c.new_surfel_clearance_cells > 8)
     throw Error(s.where() + ".new_surfel_clearance_cells: must be 0..8");
   if (c.merge_window_cells < 0 || c.merge_window_cells > 8) throw Error(s.where() + ".merge_window_cells: must be 0..8");
+  if (c.merge_window_step_cells < 1 || c.merge_window_step_cells > 8)
+    throw Error(s.where() + ".merge_window_step_cells: must be 1..8");
   if (!(c.merge_distance_rel >= 0.0f)) throw Error(s.where() + ".merge_distance_rel: must be >= 0 (0: no merging)");
   if (!(c.cull_keep_fraction > 0.0f && c.cull_keep_fraction <= 1.0f))
     throw Error(s.where() + ".cull_keep_fraction: must be in (0, 1]");

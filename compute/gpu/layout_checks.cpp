@@ -29,8 +29,10 @@ static_assert(sizeof(FuseParams) <= 128 && sizeof(SplatParams) <= 128 && sizeof(
               sizeof(ResolveParams) <= 128);
 static_assert(sizeof(CleanupParams) == 100 && offsetof(CleanupParams, free_space_penalty) == 92 &&
               offsetof(CleanupParams, merge) == 96);
-static_assert(sizeof(MergeParams) == 120 && offsetof(MergeParams, max_source_confidence) == 116 && sizeof(MergeParams) <= 128 && offsetof(MergeParams, width) == 64 && offsetof(MergeParams, rect_x0) == 80 &&
-              offsetof(MergeParams, window_cells) == 96 && offsetof(MergeParams, label_mask) == 112);
+static_assert(sizeof(MergeParams) == 124 && offsetof(MergeParams, max_source_confidence) == 116 &&
+              offsetof(MergeParams, window_step) == 120 && offsetof(MergeParams, width) == 64 &&
+              offsetof(MergeParams, rect_x0) == 80 && offsetof(MergeParams, window_cells) == 96 &&
+              offsetof(MergeParams, label_mask) == 112);
 static_assert(sizeof(RemoveRegionParams) == 96 && offsetof(RemoveRegionParams, fx) == 48 &&
               offsetof(RemoveRegionParams, label) == 76 && offsetof(RemoveRegionParams, margin_rel) == 80);
 static_assert(sizeof(MaskVerticesParams) == 40 && offsetof(MaskVerticesParams, level) == 16 &&

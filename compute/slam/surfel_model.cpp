@@ -287,6 +287,7 @@ L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, cons
   mp.surfel_count = surfel_count;
   mp.rect_x0 = fp.rect_x0, mp.rect_y0 = fp.rect_y0, mp.rect_x1 = fp.rect_x1, mp.rect_y1 = fp.rect_y1;
   mp.window_cells = uint32_t(std::max(params.merge_window_cells, 0));
+  mp.window_step = uint32_t(std::max(params.merge_window_step_cells, 1));
   mp.distance_rel = params.merge_distance_rel;
   mp.min_normal_dot = float(std::cos(params.merge_max_normal_angle_deg * M_PI / 180.0));
   mp.use_labels = fp.label_mask != FUSE_ALL_LABELS ? 1u : 0u, mp.label_mask = fp.label_mask;

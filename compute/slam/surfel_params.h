@@ -53,6 +53,11 @@ struct FusionParams {
   // its projection in the fusion's index map (half-size of the square searched; cells are 1 /
   // index_map_scale pixels) ...
   int merge_window_cells = 2;
+  // ... looking at every merge_window_step_cells-th cell of that square in x and y (1: all). A
+  // surfel holds a block of about 2x2 cells of the index map (index_map_footprint 1 at scale 2),
+  // which every second cell meets; the search is the costliest kernel of a frame, its time grows
+  // with the cells looked at (lavapipe runs the loop body for all lanes of a SIMD group).
+  int merge_window_step_cells = 2;
   // ... that lies within this fraction of the larger of the two radii (m per m; 0 switches
   // merging off). New surfels fill the gaps between the surfels of a surface seen from a new
   // angle; without merging they pile up, about 1.2M surfels on TUM fr1/rpy's first 200 frames.

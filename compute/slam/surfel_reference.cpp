@@ -241,9 +241,11 @@ uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint
   const int cx = int(std::floor(u)), cy = int(std::floor(v)), R = int(p.window_cells);
   uint32_t best = MERGE_NONE, last = MERGE_NONE;  // last: the previous cell's surfel (mostly the same)
   float best_d2 = 1e30f;
-  for (int y = std::max(cy - R, 0); y <= std::min(cy + R, int(grid_height) - 1); ++y)
-    for (int x = std::max(cx - R, 0); x <= std::min(cx + R, int(grid_width) - 1); ++x) {
-      if (!cell_fused(x, y, labels, p)) continue;
+  const int step = int(std::max(p.window_step, 1u));
+  for (int y = cy - R; y <= cy + R; y += step) {
+    if (y < 0 || y >= int(grid_height)) continue;
+    for (int x = cx - R; x <= cx + R; x += step) {
+      if (x < 0 || x >= int(grid_width) || !cell_fused(x, y, labels, p)) continue;
       const uint32_t j = uint32_t(index_map[size_t(y) * grid_width + size_t(x)] & 0xFFFFFFFFu);
       if (j == 0xFFFFFFFFu || j == i || j == last) continue;
       last = j;
@@ -254,6 +256,7 @@ uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint
       if (d2 >= r * r || glm::dot(normal_of(si), normal_of(sj)) < p.min_normal_dot) continue;
       if (d2 < best_d2 || (d2 == best_d2 && j < best)) best = j, best_d2 = d2;
     }
+  }
   return best;
 }
 }  // namespace

@@ -438,7 +438,8 @@ std::vector<Surfel> with_copies(std::vector<Surfel> surfels, unsigned seed) {
 }
 
 // surfel_merge_select, surfel_merge_claim and the merging cleanup against their references, over
-// edge sizes (an empty model included), with and without labels and a rectangle.
+// edge sizes (an empty model included), with and without labels and a rectangle, searching every
+// cell of the window or every second one.
 TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
   const Size sizes[] = {{37, 23}, {1, 1}, {37, 23}, {160, 120}, {640, 480}};
   for (size_t case_index = 0; case_index < std::size(sizes); ++case_index) {
@@ -452,19 +453,22 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
     const auto grid = ref::splat(surfels, sp);
     std::vector<uint32_t> labels(size_t(s.width) * s.height);
     for (size_t i = 0; i < labels.size(); ++i) labels[i] = i % 13 == 0 ? 255u : (i / 5) % 4 == 0 ? 2u : (i / 5) % 4 == 1 ? 3u : 1u;
-    for (int variant = 0; variant < 2; ++variant) {
-      const std::string what = (case_index == 0 ? "empty model " : "") + name(s) + (variant ? " labelled, in a rectangle" : "");
+    for (int variant = 0; variant < 4; ++variant) {
+      const bool labelled = variant % 2 == 1;
+      const uint32_t step = variant < 2 ? 1u : 2u;
+      const std::string what = (case_index == 0 ? "empty model " : "") + name(s) + (labelled ? " labelled, in a rectangle" : "") +
+                               ", window step " + std::to_string(step);
       L::MergeParams mp{};
       std::copy(sp.T_camera_model, sp.T_camera_model + 12, mp.T_camera_model);
       mp.fx = sp.fx, mp.fy = sp.fy, mp.cx = sp.cx, mp.cy = sp.cy;
       mp.width = uint32_t(s.width), mp.height = uint32_t(s.height), mp.grid_scale = 2, mp.surfel_count = n;
-      const PixelRect rect = variant ? PixelRect{s.width / 4, s.height / 3, s.width, (3 * s.height + 3) / 4}
+      const PixelRect rect = labelled ? PixelRect{s.width / 4, s.height / 3, s.width, (3 * s.height + 3) / 4}
                                      : PixelRect::full(s.width, s.height);
       mp.rect_x0 = uint32_t(rect.x0), mp.rect_y0 = uint32_t(rect.y0), mp.rect_x1 = uint32_t(rect.x1),
       mp.rect_y1 = uint32_t(rect.y1);
       mp.window_cells = 2, mp.distance_rel = 0.5f, mp.min_normal_dot = std::cos(35.0f * float(M_PI) / 180.0f);
-      mp.max_source_confidence = 8.0f;
-      mp.use_labels = uint32_t(variant), mp.label_mask = (1u << 1) | (1u << 3);
+      mp.max_source_confidence = 8.0f, mp.window_step = step;
+      mp.use_labels = uint32_t(labelled), mp.label_mask = (1u << 1) | (1u << 3);
       const size_t slots = std::max<size_t>(n, 4);
       slam::SurfelPipelines::MergeBuffers b{upload(surfels.empty() ? std::vector<Surfel>(1) : surfels, "surfels"),
                                             upload(grid, "grid"),
@@ -483,7 +487,7 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       // Tolerance: projections and distances on rounding boundaries may flip for 0.2% of surfels.
       EXPECT_LE(differ, size_t(n) / 500) << what;
       if (s.width >= 160) {
-        EXPECT_GT(merging, size_t(n) / (variant ? 40 : 10)) << "test data merges too little: " << what;
+        EXPECT_GT(merging, size_t(n) / (labelled ? 40 : 10)) << "test data merges too little: " << what;
       }
 
       // The claims from the CPU's targets on both sides: exact.
