@@ -237,11 +237,11 @@ struct CleanupParams {
 
 // ---- surfel_merge_select.comp, surfel_merge_claim.comp: duplicate surfels --------------------
 // After fusion's update (before cleanup), each surfel i looks at every window_step-th cell (in x
-// and y) of fusion's supersampled index map within window_cells of its projection, in the part of the image this
-// fusion covered (cells of pixels in the rectangle and, with use_labels, of its labels). A
-// surfel j found there that is more confident (equal confidence: lower index), lies within
-// distance_rel * max(radius_i, radius_j) of i and has a normal within acos(min_normal_dot) of
-// i's is a merge target; i takes the nearest (ties: lowest index) as target[i] (MERGE_NONE: none).
+// and y) of fusion's supersampled index map within window_cells of its projection, in the part
+// of the image this fusion covered (cells of pixels in the rectangle and, with use_labels, of its
+// labels). A surfel j found there that is more confident (equal confidence: lower index), lies
+// within distance_rel * max(radius_i, radius_j) of i and has a normal within acos(min_normal_dot)
+// of i's is a merge target; i takes the nearest (ties: lowest index) as target[i] (MERGE_NONE: none).
 // surfel_merge_claim then claims each target that has no target of its own for the lowest such
 // source index (atomicMin: order-independent), so every surfel takes part in at most one merge
 // per frame and the result does not depend on thread order. surfel_cleanup applies the merges.
@@ -268,7 +268,7 @@ struct MergeParams {
   uint use_labels;
   uint label_mask;
   float max_source_confidence;  // only surfels below this confidence look for a target
-  uint window_step;           // cells between the searched cells, in x and y (offsets -window_cells, -window_cells + step, ...)
+  uint window_step;           // cells from one searched cell to the next, in x and y (from -window_cells)
 };
 
 // ---- surfel_remove_region.comp: remove the surfels that a labelled live region covers ----------

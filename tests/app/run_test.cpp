@@ -568,6 +568,15 @@ TEST(RunCommand, ObjectPhotometricWeightIsReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
+TEST(RunCommand, MergeWindowStepIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  const Result bad = run_with_config(dir, "config.json", R"({"fusion": {"merge_window_step_cells": 0}})");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.output, HasSubstr("merge_window_step_cells: must be 1..8")) << bad.output;
+  const Result ok = run_with_config(dir, "ok.json", R"({"fusion": {"merge_window_step_cells": 1}})", "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 // --screenshot offscreen (headless) and from the window under a virtual X server: a PNG of the
 // final view, showing the model (not just the background colour).
 void expect_screenshot(const fs::path& png) {

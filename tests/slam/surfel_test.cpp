@@ -463,7 +463,7 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       mp.fx = sp.fx, mp.fy = sp.fy, mp.cx = sp.cx, mp.cy = sp.cy;
       mp.width = uint32_t(s.width), mp.height = uint32_t(s.height), mp.grid_scale = 2, mp.surfel_count = n;
       const PixelRect rect = labelled ? PixelRect{s.width / 4, s.height / 3, s.width, (3 * s.height + 3) / 4}
-                                     : PixelRect::full(s.width, s.height);
+                                      : PixelRect::full(s.width, s.height);
       mp.rect_x0 = uint32_t(rect.x0), mp.rect_y0 = uint32_t(rect.y0), mp.rect_x1 = uint32_t(rect.x1),
       mp.rect_y1 = uint32_t(rect.y1);
       mp.window_cells = 2, mp.distance_rel = 0.5f, mp.min_normal_dot = std::cos(35.0f * float(M_PI) / 180.0f);
