@@ -32,7 +32,7 @@ uint merge_target(uint i) {
   const float reach = float(p.window_cells) + 1.0;
   if (!(u > -reach && v > -reach && u < float(grid_width) + reach && v < float(grid_height) + reach)) return MERGE_NONE;
   const int cx = int(floor(u)), cy = int(floor(v)), R = int(p.window_cells);
-  uint best = MERGE_NONE, last = MERGE_NONE;  // last: the previous cell's surfel (mostly the same)
+  uint best = MERGE_NONE, last = MERGE_NONE;  // last: the surfel of the cell looked at before (mostly the same)
   float best_d2 = 1e30;
   const int step = int(max(p.window_step, 1u));
   for (int y = cy - R; y <= cy + R; y += step) {

@@ -524,9 +524,9 @@ CameraState CoFusion::track_or_relocalise(const std::vector<Model*>& active, con
     return camera;
   }
   const std::vector<float> depth_not_excluded = depth_outside_excluded(depth_m);
-  const CameraState camera = relocalise(*active.front(), encoding, keyframes_.features(rgb, depth_not_excluded.data(), intrinsics_))
-                                 ? CameraState::kRecovered
-                                 : CameraState::kLost;
+  const auto features = keyframes_.features(rgb, depth_not_excluded.data(), intrinsics_);
+  const CameraState camera =
+      relocalise(*active.front(), encoding, features) ? CameraState::kRecovered : CameraState::kLost;
   if (camera == CameraState::kRecovered) out.events.push_back("frame " + std::to_string(frame_) + ": camera relocalised");
   stage("relocalise");
   return camera;
@@ -877,7 +877,8 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
     for (const auto& m : models_)
       if (m->slot >= 0 && m->slot < kSlots && (m->id == 0 || m->resting)) still[size_t(m->slot)] = true;
     const auto still_features = [&] {
-      const std::vector<float> depth = depth_where(depth_m, slots_.size(), [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; });
+      const std::vector<float> depth =
+          depth_where(depth_m, slots_.size(), [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; });
       return keyframes_.features(rgb, depth.data(), intrinsics_);
     };
     keyframes_.add_if_novel(encoding, still_features, T_world_camera_);

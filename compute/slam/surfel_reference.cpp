@@ -239,7 +239,7 @@ uint32_t merge_target(const std::vector<Surfel>& surfels, const std::vector<uint
   const float reach = float(p.window_cells) + 1.0f;
   if (!(u > -reach && v > -reach && u < float(grid_width) + reach && v < float(grid_height) + reach)) return MERGE_NONE;
   const int cx = int(std::floor(u)), cy = int(std::floor(v)), R = int(p.window_cells);
-  uint32_t best = MERGE_NONE, last = MERGE_NONE;  // last: the previous cell's surfel (mostly the same)
+  uint32_t best = MERGE_NONE, last = MERGE_NONE;  // last: the surfel of the cell looked at before (mostly the same)
   float best_d2 = 1e30f;
   const int step = int(std::max(p.window_step, 1u));
   for (int y = cy - R; y <= cy + R; y += step) {
