@@ -195,11 +195,18 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("object_outline_photometric", c.object_outline_photometric)
       .field("object_photometric_weight", c.object_photometric_weight)
       .field("object_icp_noise_reference_depth_m", c.object_icp_noise_reference_depth_m)
-      .field("object_iterations_per_level", c.object_iterations_per_level);
+      .field("object_iterations_per_level", c.object_iterations_per_level)
+      .field("rising_min_cost_m", c.rising_min_cost_m)
+      .field("rising_min_step_m", c.rising_min_step_m)
+      .field("rising_min_area_fraction", c.rising_min_area_fraction)
+      .field("rising_max_cost_m", c.rising_max_cost_m);
   require_iteration_counts(c.object_iterations_per_level, s.where() + ".object_iterations_per_level");
   const std::string& where = s.where();
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
     throw Error(where + ".spawn_min_area_fraction: must be in (0, 1)");
+  if (!(c.rising_min_cost_m >= 0 && c.rising_min_step_m >= 0 && c.rising_max_cost_m >= 0 && c.rising_min_area_fraction >= 0 &&
+        c.rising_min_area_fraction < 1))
+    throw Error(where + ".rising_*: costs must be >= 0 and rising_min_area_fraction in [0, 1)");
   if (!(c.object_photometric_weight >= 0)) throw Error(where + ".object_photometric_weight: must be >= 0");
   if (!(c.object_icp_noise_reference_depth_m >= 0))
     throw Error(where + ".object_icp_noise_reference_depth_m: must be >= 0");

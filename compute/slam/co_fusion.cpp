@@ -812,6 +812,7 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
   std::vector<std::span<const float>> views(costs.begin(), costs.end());
   segmentation::SegmentationResult seg = segmenter_.segment(superpixels, rgb, depth_m, views);
   mark_excluded(excluded, segmentation::kNoLabel, seg.labels);
+  rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size()));
   slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
 }

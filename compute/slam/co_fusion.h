@@ -19,6 +19,7 @@
 // With instance masks (process()'s `semantic`, semantic_masks.h) pixels of excluded classes are
 // kept out of steps 2-5 (mover pixels), and in step 4 instances of modelled classes join the
 // models they overlap and, in the semantic/both modes, spawn models of their own.
+#include <array>
 #include <deque>
 #include <functional>
 #include <memory>
@@ -209,6 +210,21 @@ struct LifecycleParams {
   // (region_rigidity.h): a person entering the view, before the detector or the person segmenter
   // sees them, is a region but no rigid body. A region that fails stays a candidate.
   RegionRigidityParams spawn_rigidity;
+  // Evidence over frames for an object that starts slowly. While its displacement is still below
+  // the outlier crossover, the background's cost over it rises from frame to frame; over a static
+  // surface the background fits badly it is raised but steady. Superpixels whose mean background
+  // cost is at least rising_min_cost_m form regions (4-connected, outlier pixels included). A
+  // region of at least rising_min_area_fraction of the image whose mean cost (over its pixels with
+  // a cost in all three frames) rose by at least rising_min_step_m in each of the last two frames,
+  // and is at most rising_max_cost_m (above it the segmentation separates the motion by itself: a
+  // person walking in), lends its background pixels whose own cost is at least rising_min_cost_m
+  // to the outlier regions that spawn models, while the camera is steady enough for a spawn. The
+  // usual rules for a spawn follow (two frames running, rigid motion). Only spawning sees them:
+  // fusion and tracking use the segmentation as it is. rising_min_step_m 0 = off.
+  double rising_min_cost_m = 0.006;
+  double rising_min_step_m = 0.002;
+  double rising_min_area_fraction = 0.01;
+  double rising_max_cost_m = 0.03;
 };
 
 // Camera tracking loss and relocalisation. A frame whose camera tracking fails is lost: its pose is
@@ -427,11 +443,18 @@ class CoFusion {
   static void relabel(std::vector<uint8_t>& slots, int from, int to);
   void merge_static_newcomers(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
   void merge_comoving(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
+  std::vector<uint8_t> rising_background(const segmentation::Superpixels& superpixels,
+                                         const std::vector<float>& background_costs, const std::vector<uint8_t>& labels,
+                                         uint8_t outlier);
+  std::vector<uint8_t> rising_regions(const std::vector<uint8_t>& raised,
+                                      const std::array<const std::vector<float>*, 3>& costs,
+                                      const std::vector<uint8_t>& labels);
   std::vector<std::vector<size_t>> outlier_regions(const segmentation::SegmentationResult& seg, uint8_t outlier,
                                                    std::vector<uint8_t>& slots);
   std::optional<Eigen::Vector3d> region_centroid(const std::vector<size_t>& pixels, const float* depth_m) const;
   SpawnPlan plan_spawns(const segmentation::SegmentationResult& seg, const float* depth_m, uint8_t outlier,
                         const Model& bg, std::vector<uint8_t>& slots, CoFusionFrame& out);
+  bool spawn_camera_steady(const Model& bg) const;
   bool steady_motion(const Eigen::Isometry3d& motion) const;
   bool camera_was_steady() const;
   std::optional<double> rigid_fraction(const std::vector<size_t>& pixels, const float* depth_m,
@@ -500,6 +523,11 @@ class CoFusion {
   // k-th, whose live points' centroid (camera frame; none without depth) is entry k - 1.
   std::vector<uint8_t> spawn_candidate_;
   std::vector<std::optional<Eigen::Vector3d>> spawn_candidate_centroids_;
+  // The background's per-pixel costs of the last two frames (frame number, costs; newest last)
+  // and this frame's rising pixels (LifecycleParams::rising_min_step_m; empty = none).
+  std::deque<std::pair<int, std::vector<float>>> background_cost_history_;
+  std::vector<uint8_t> rising_;
+  segmentation::ComponentLabelling rising_components_;
   segmentation::ComponentLabelling components_;  // scratch of the outlier-region search
   std::vector<std::unique_ptr<Model>> models_;  // active and inactive
   // Tracking loss: lost_ from a failed camera tracking until a relocalisation succeeds;

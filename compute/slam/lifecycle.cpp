@@ -2,6 +2,7 @@
 // segmentation to model slots; rigidity trials, merges, spawns, re-activation and retirement;
 // instance masks; movers.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -154,7 +155,17 @@ std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::S
   const int width = intrinsics_.width, height = intrinsics_.height;
   const double n = double(width) * height;
   segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
-  const std::vector<char> mover = mark_movers(outlier, slots);
+  std::vector<char> mover = mark_movers(outlier, slots);
+  if (!rising_.empty()) {
+    // Rising background pixels (rising_background) join the outlier regions; mover pixels leave
+    // them (the same regions as mover flags give without rising pixels).
+    std::vector<uint8_t> labels = seg.labels;
+    for (size_t i = 0; i < labels.size(); ++i)
+      if (slots[i] == kMoverSlot) labels[i] = segmentation::kNoLabel;
+      else if (rising_[i]) labels[i] = outlier;
+    segmentation::label_components(labels.data(), width, height, std::optional<uint8_t>{}, components_);
+    mover.assign(components_.components.size(), 0);
+  }
   std::vector<int> large_components;
   for (int c = 0; c < int(components_.components.size()); ++c) {
     const auto& info = components_.components[size_t(c)];
@@ -173,6 +184,80 @@ std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::S
       for (int x = run.x0; x < run.x1; ++x)
         regions[size_t(region_of[size_t(run.component)])].push_back(size_t(run.y) * size_t(width) + size_t(x));
   return regions;
+}
+
+namespace {
+// Per pixel 1 where its superpixel's mean cost (over the pixels with a cost) is at least
+// min_cost_m and the segmentation gave it to the background (0) or the outlier label, else 0.
+std::vector<uint8_t> raised_superpixels(const segmentation::Superpixels& superpixels, const std::vector<float>& cost_m,
+                                        const std::vector<uint8_t>& labels, uint8_t outlier, double min_cost_m) {
+  const size_t n = cost_m.size();
+  std::vector<double> sum(size_t(superpixels.count), 0.0);
+  std::vector<int> count(size_t(superpixels.count), 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(cost_m[i])) continue;
+    sum[size_t(superpixels.label[i])] += cost_m[i];
+    ++count[size_t(superpixels.label[i])];
+  }
+  std::vector<uint8_t> raised(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const size_t s = size_t(superpixels.label[i]);
+    raised[i] = (labels[i] == 0 || labels[i] == outlier) && count[s] > 0 && sum[s] >= min_cost_m * count[s];
+  }
+  return raised;
+}
+}  // namespace
+
+// LifecycleParams::rising_*: per pixel 1 where the background's cost rises as over an object that
+// starts to move slowly, else 0; empty when there is no such pixel. `labels`: the segmentation's
+// (0 = the background). Moves the history of the background's costs on by this frame.
+std::vector<uint8_t> CoFusion::rising_background(const segmentation::Superpixels& superpixels,
+                                                 const std::vector<float>& background_costs,
+                                                 const std::vector<uint8_t>& labels, uint8_t outlier) {
+  const LifecycleParams& p = params_.lifecycle;
+  const auto& h = background_cost_history_;
+  const bool history = p.rising_min_step_m > 0 && h.size() == 2 && h[0].first == frame_ - 2 && h[1].first == frame_ - 1 &&
+                       superpixels.label.size() == background_costs.size();
+  std::vector<uint8_t> rising;
+  if (history && spawn_camera_steady(*models_.front()))
+    rising = rising_regions(raised_superpixels(superpixels, background_costs, labels, outlier, p.rising_min_cost_m),
+                            {&h[0].second, &h[1].second, &background_costs}, labels);
+  background_cost_history_.emplace_back(frame_, background_costs);
+  while (background_cost_history_.size() > 2) background_cost_history_.pop_front();
+  return rising;
+}
+
+// The background pixels (label 0) of the regions of `raised` whose mean cost rises, with a cost of
+// their own of at least rising_min_cost_m (rising_background); empty when there is none. `costs`:
+// the background's costs two frames ago, one frame ago and now.
+std::vector<uint8_t> CoFusion::rising_regions(const std::vector<uint8_t>& raised,
+                                              const std::array<const std::vector<float>*, 3>& costs,
+                                              const std::vector<uint8_t>& labels) {
+  const LifecycleParams& p = params_.lifecycle;
+  const std::vector<float>& now = *costs[2];
+  const size_t n = now.size(), width = size_t(intrinsics_.width);
+  segmentation::label_components(raised.data(), intrinsics_.width, intrinsics_.height, std::optional<uint8_t>{0},
+                                 rising_components_);
+  const double min_pixels = p.rising_min_area_fraction * double(n);
+  // Per component: the sums of the three frames' costs over its pixels with a cost in all three, and their count.
+  std::vector<std::array<double, 4>> sums(rising_components_.components.size(), {0, 0, 0, 0});
+  for (const auto& run : rising_components_.runs) {
+    if (double(rising_components_.components[size_t(run.component)].pixels) < min_pixels) continue;
+    auto& m = sums[size_t(run.component)];
+    for (size_t i = size_t(run.y) * width + size_t(run.x0); i < size_t(run.y) * width + size_t(run.x1); ++i)
+      if (std::isfinite((*costs[0])[i]) && std::isfinite((*costs[1])[i]) && std::isfinite(now[i]))
+        m[0] += (*costs[0])[i], m[1] += (*costs[1])[i], m[2] += now[i], m[3] += 1;
+  }
+  std::vector<uint8_t> rising;
+  for (const auto& run : rising_components_.runs) {
+    const auto& m = sums[size_t(run.component)];
+    const double step = p.rising_min_step_m * m[3];
+    if (m[3] < 0.5 * min_pixels || m[2] > p.rising_max_cost_m * m[3] || m[2] - m[1] < step || m[1] - m[0] < step) continue;
+    if (rising.empty()) rising.assign(n, 0);
+    for (size_t i = size_t(run.y) * width + size_t(run.x0); i < size_t(run.y) * width + size_t(run.x1); ++i)
+      rising[i] = labels[i] == 0 && now[i] >= p.rising_min_cost_m;
+  }
+  return rising;
 }
 
 // Centroid (camera frame) of a region's live points: a new model's origin, and with the previous
@@ -206,8 +291,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
   plan.regions = outlier_regions(seg, outlier, slots);
   int active_count = 0;
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
-  const bool camera_steady = !bg.tracking.failed && !bg.motion_refused && steady_motion(bg.motion) && camera_was_steady() &&
-                             frame_ - last_recovery_frame_ >= params_.relocalisation.settle_frames;
+  const bool camera_steady = spawn_camera_steady(bg);
   const std::vector<uint8_t> previous_candidates = std::move(spawn_candidate_);
   const std::vector<std::optional<Eigen::Vector3d>> previous_centroids = std::move(spawn_candidate_centroids_);
   spawn_candidate_.assign(n, 0);
@@ -249,6 +333,12 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     }
   }
   return plan;
+}
+
+// Whether the camera (the background's tracking, bg) is steady enough for a spawn this frame.
+bool CoFusion::spawn_camera_steady(const Model& bg) const {
+  return !bg.tracking.failed && !bg.motion_refused && steady_motion(bg.motion) && camera_was_steady() &&
+         frame_ - last_recovery_frame_ >= params_.relocalisation.settle_frames;
 }
 
 // LifecycleParams::spawn_max_camera_*: whether a camera motion (T_previous_current) is slow enough

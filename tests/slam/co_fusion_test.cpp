@@ -103,13 +103,15 @@ std::set<int> object_model_ids(const SceneRun& r) {
 }
 
 // The multi-object issue's bounds on a generated scene: camera ATE <= 1 cm; every moving object
-// discovered (a model covering it with IoU >= 0.5) within 10 frames of the first frame in which it
-// covers the spawn threshold and its motion has told it apart from every other body (separable_from); no other
-// object model lives more than 10 frames; tracked-point ATE <= 1 cm per object; drift of each
-// object's centre since its discovery (issue 23: no per-object fit, in the cameras' alignment) at
-// most max_drift_m RMSE; mean per-label IoU >= 0.8 over the frames after each label's discovery
-// allowance. Measured drift (2026-11-26, runs are deterministic): 1.0-3.0 mm RMSE on every scene's
-// objects but five_objects' objects 4 and 5 (4.7 and 21 mm); the bound is issue 23's 5 mm.
+// discovered (a model covering it with IoU >= 0.5) within kMaxDiscoveryFrames of the first frame in
+// which it covers the spawn threshold and its motion has told it apart from every other body
+// (separable_from); no other object model lives more than 10 frames; tracked-point ATE <= 1 cm per
+// object; drift of each object's centre since its discovery (issue 23: no per-object fit, in the
+// cameras' alignment) at most max_drift_m RMSE; mean per-label IoU >= 0.8 over the frames after
+// each label's discovery allowance. Measured (2026-11-26, runs are deterministic): discovery 1-6
+// frames (one_object's slowly starting box 6); drift 0.9-3.7 mm RMSE on every scene's objects but
+// five_objects' objects 4 and 5 (5.1 and 20.5 mm). The bounds are issue 23's 6 frames and 5 mm.
+constexpr int kMaxDiscoveryFrames = 6;
 constexpr double kMaxDriftM = 0.005;
 void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun& r, double max_drift_m = kMaxDriftM) {
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
@@ -121,7 +123,7 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
   // The camera's tracked motion always agrees with the previous frame here (CameraCheckParams).
   for (const auto& f : r.frames) EXPECT_NE(f.camera_state, slam::CameraState::kRefused) << "frame " << f.frame;
 
-  // Discovery: a model covering the object (IoU >= 0.5) within 10 frames of it being separable.
+  // Discovery: a model covering the object (IoU >= 0.5) within kMaxDiscoveryFrames of it being separable.
   std::map<int, int> model_of;  // gt object id -> model id
   std::map<int, int> start_of, discovered_at;
   for (int k = 1; k <= seq.object_count(); ++k) {
@@ -147,7 +149,7 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
     std::printf("  object %d: separable and in view from frame %d, discovered at %d by model %d\n", k, start, discovered,
                 model_of[k]);
     ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_discovery_delay_frames", discovered - start);
-    EXPECT_LE(discovered - start, 10) << "object " << k;
+    EXPECT_LE(discovered - start, kMaxDiscoveryFrames) << "object " << k;
   }
 
   // Spurious models: every other object model is gone within 10 frames.
@@ -239,7 +241,7 @@ TEST_F(CoFusionScenes, HandoverSplitsTheArmsFromTheCubeSlow) {
 // motion reverses at once (from lifting to carrying down: 1.8 cm from the constant-velocity guess)
 // while the box is cut by the image's left border. Object 4, a weakly textured can turning about its
 // axis, drifted 16 mm before objects weighed colour by the terms' noise
-// (LifecycleParams::object_photometric_weight); 4.7 mm now.
+// (LifecycleParams::object_photometric_weight); 5.1 mm now.
 TEST_F(CoFusionScenes, FiveObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("five_objects"));
   expect_issue_bounds(seq, run(seq), 0.03);
