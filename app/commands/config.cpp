@@ -199,7 +199,10 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("rising_min_cost_m", c.rising_min_cost_m)
       .field("rising_min_step_m", c.rising_min_step_m)
       .field("rising_min_area_fraction", c.rising_min_area_fraction)
-      .field("rising_max_cost_m", c.rising_max_cost_m);
+      .field("rising_max_cost_m", c.rising_max_cost_m)
+      .field("slide_min_shift_px", c.slide_min_shift_px)
+      .field("slide_min_intensity", c.slide_min_intensity)
+      .field("slide_min_fraction", c.slide_min_fraction);
   require_iteration_counts(c.object_iterations_per_level, s.where() + ".object_iterations_per_level");
   const std::string& where = s.where();
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
@@ -207,6 +210,8 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   if (!(c.rising_min_cost_m >= 0 && c.rising_min_step_m >= 0 && c.rising_max_cost_m >= 0 && c.rising_min_area_fraction >= 0 &&
         c.rising_min_area_fraction < 1))
     throw Error(where + ".rising_*: costs must be >= 0 and rising_min_area_fraction in [0, 1)");
+  if (!(c.slide_min_shift_px >= 0 && c.slide_min_intensity >= 0 && c.slide_min_fraction >= 0 && c.slide_min_fraction <= 1))
+    throw Error(where + ".slide_*: must be >= 0, slide_min_fraction at most 1");
   if (!(c.object_photometric_weight >= 0)) throw Error(where + ".object_photometric_weight: must be >= 0");
   if (!(c.object_icp_noise_reference_depth_m >= 0))
     throw Error(where + ".object_icp_noise_reference_depth_m: must be >= 0");

@@ -813,6 +813,7 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
   segmentation::SegmentationResult seg = segmenter_.segment(superpixels, rgb, depth_m, views);
   mark_excluded(excluded, segmentation::kNoLabel, seg.labels);
   rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size()));
+  changed_ = changed_since_previous(superpixels, depth_m, rgb, seg.labels);
   slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
 }
@@ -891,6 +892,11 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   }
   if (params_.camera_check.enabled || params_.lifecycle.spawn_rigidity.enabled) {
     previous_depth_m_.assign(depth_m, depth_m + n);
+  }
+  if (params_.lifecycle.slide_min_shift_px > 0 && rgb) {  // for LifecycleParams::slide_*
+    previous_intensity_.resize(n);
+    for (size_t i = 0; i < n; ++i)
+      previous_intensity_[i] = float(int(rgb[3 * i]) + int(rgb[3 * i + 1]) + int(rgb[3 * i + 2])) / (3.0f * 255.0f);
   }
   camera_history_.push_back(camera == CameraState::kLost ? std::nullopt : std::optional(T_world_camera_));
   if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();

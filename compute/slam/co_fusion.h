@@ -225,6 +225,20 @@ struct LifecycleParams {
   double rising_min_step_m = 0.002;
   double rising_min_area_fraction = 0.01;
   double rising_max_cost_m = 0.03;
+  // Evidence from the previous frame for a surface that slides along itself (a box pushed over a
+  // table: its top and the faces along its path). There the background's cost stays low (no
+  // point-to-plane residual, and fusion keeps averaging the moving texture into the background),
+  // but the image differs from the previous frame where the camera's motion puts each pixel. A
+  // background pixel differs where that intensity difference (after the frames' exposure ratio) is
+  // above slide_min_intensity and above what a shift of slide_min_shift_px along the previous
+  // image's gradient explains (the camera's pose error, noise), at a point the previous frame saw
+  // at that depth. A superpixel with at least slide_min_fraction of its tested pixels differing
+  // lends its background pixels to the outlier regions that spawn models, but only to a region
+  // that holds outlier or rising pixels of its own, while the camera is steady enough for a spawn.
+  // Only spawning sees them, as rising pixels. slide_min_shift_px 0 = off.
+  double slide_min_shift_px = 1.5;
+  double slide_min_intensity = 0.04;  // grey level in [0, 1]
+  double slide_min_fraction = 0.2;
 };
 
 // Camera tracking loss and relocalisation. A frame whose camera tracking fails is lost: its pose is
@@ -446,6 +460,13 @@ class CoFusion {
   std::vector<uint8_t> rising_background(const segmentation::Superpixels& superpixels,
                                          const std::vector<float>& background_costs, const std::vector<uint8_t>& labels,
                                          uint8_t outlier);
+  struct PreviousSamples {
+    std::vector<float> intensity, gradient;  // per pixel; intensity -1 = not seen there
+    float gain = 1;                          // previous / current exposure
+  };
+  PreviousSamples sample_previous(const float* depth_m, const uint8_t* rgb, const std::vector<uint8_t>& labels) const;
+  std::vector<uint8_t> changed_since_previous(const segmentation::Superpixels& superpixels, const float* depth_m,
+                                              const uint8_t* rgb, const std::vector<uint8_t>& labels) const;
   std::vector<uint8_t> rising_regions(const std::vector<uint8_t>& raised,
                                       const std::array<const std::vector<float>*, 3>& costs,
                                       const std::vector<uint8_t>& labels);
@@ -527,6 +548,8 @@ class CoFusion {
   // and this frame's rising pixels (LifecycleParams::rising_min_step_m; empty = none).
   std::deque<std::pair<int, std::vector<float>>> background_cost_history_;
   std::vector<uint8_t> rising_;
+  std::vector<uint8_t> changed_;  // this frame's changed pixels (LifecycleParams::slide_*; empty = none)
+  std::vector<float> previous_intensity_;  // the previous frame's grey levels in [0, 1]
   segmentation::ComponentLabelling rising_components_;
   segmentation::ComponentLabelling components_;  // scratch of the outlier-region search
   std::vector<std::unique_ptr<Model>> models_;  // active and inactive

@@ -9,6 +9,9 @@
 #include <string>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "segmentation/connected_components.h"
 #include "slam/co_fusion.h"
 #include "slam/co_fusion_model.h"
@@ -156,15 +159,23 @@ std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::S
   const double n = double(width) * height;
   segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
   std::vector<char> mover = mark_movers(outlier, slots);
-  if (!rising_.empty()) {
-    // Rising background pixels (rising_background) join the outlier regions; mover pixels leave
-    // them (the same regions as mover flags give without rising pixels).
+  if (!rising_.empty() || !changed_.empty()) {
+    // Rising and changed background pixels (rising_background, changed_since_previous) join the
+    // outlier regions; mover pixels leave them (the same regions as mover flags give without them).
     std::vector<uint8_t> labels = seg.labels;
     for (size_t i = 0; i < labels.size(); ++i)
       if (slots[i] == kMoverSlot) labels[i] = segmentation::kNoLabel;
-      else if (rising_[i]) labels[i] = outlier;
+      else if ((!rising_.empty() && rising_[i]) || (!changed_.empty() && changed_[i])) labels[i] = outlier;
     segmentation::label_components(labels.data(), width, height, std::optional<uint8_t>{}, components_);
     mover.assign(components_.components.size(), 0);
+    // Changed pixels alone make no region: they only extend an outlier or a rising region.
+    std::vector<char> seeded(components_.components.size(), 0);
+    for (const auto& run : components_.runs)
+      for (int x = run.x0; x < run.x1 && !seeded[size_t(run.component)]; ++x) {
+        const size_t i = size_t(run.y) * size_t(width) + size_t(x);
+        seeded[size_t(run.component)] = seg.labels[i] == outlier || (!rising_.empty() && rising_[i]);
+      }
+    for (size_t c = 0; c < mover.size(); ++c) mover[c] = !seeded[c];
   }
   std::vector<int> large_components;
   for (int c = 0; c < int(components_.components.size()); ++c) {
@@ -258,6 +269,82 @@ std::vector<uint8_t> CoFusion::rising_regions(const std::vector<uint8_t>& raised
       rising[i] = labels[i] == 0 && now[i] >= p.rising_min_cost_m;
   }
   return rising;
+}
+
+namespace {
+float grey(const uint8_t* rgb, size_t i) {  // in [0, 1]
+  return float(int(rgb[3 * i]) + int(rgb[3 * i + 1]) + int(rgb[3 * i + 2])) * (1.0f / (3.0f * 255.0f));
+}
+}  // namespace
+
+// The previous frame's grey level (bilinear) and gradient (the larger central difference, per
+// pixel) where the camera's motion puts each background pixel of this frame, if the previous frame
+// saw a surface at that depth there (else -1); and the frames' exposure ratio over those pixels.
+CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const uint8_t* rgb,
+                                                    const std::vector<uint8_t>& labels) const {
+  const int w = intrinsics_.width, h = intrinsics_.height;
+  const Eigen::Isometry3f T_previous_current = (camera_history_.back()->inverse() * T_world_camera_).cast<float>();
+  const float* prev = previous_intensity_.data();
+  PreviousSamples s;
+  s.intensity.assign(size_t(w) * size_t(h), -1.0f);
+  s.gradient.assign(s.intensity.size(), 0.0f);
+  std::vector<double> sum_previous(size_t(h), 0.0), sum_current(size_t(h), 0.0);  // per row: deterministic
+  tbb::parallel_for(tbb::blocked_range<int>(1, h - 1, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t i = size_t(y) * size_t(w) + size_t(x);
+        const float z = depth_m[i];
+        if (labels[i] != 0 || !(z > 0.0f)) continue;
+        const Eigen::Vector3f q = T_previous_current * Eigen::Vector3f((float(x) - float(intrinsics_.cx)) / float(intrinsics_.fx) * z,
+                                                                       (float(y) - float(intrinsics_.cy)) / float(intrinsics_.fy) * z, z);
+        if (!(q.z() > 0.0f)) continue;
+        const float u = float(intrinsics_.fx) * q.x() / q.z() + float(intrinsics_.cx);
+        const float v = float(intrinsics_.fy) * q.y() / q.z() + float(intrinsics_.cy);
+        if (!(u >= 1.0f && v >= 1.0f && u < float(w - 2) && v < float(h - 2))) continue;
+        const size_t j = size_t(int(v)) * size_t(w) + size_t(int(u));
+        const float z_previous = previous_depth_m_[j];
+        if (!(z_previous > 0.0f) || std::abs(z_previous - q.z()) > 0.02f * q.z() + 0.01f) continue;
+        const float a = u - std::floor(u), b = v - std::floor(v), wd = float(w);
+        s.intensity[i] = (1 - a) * (1 - b) * prev[j] + a * (1 - b) * prev[j + 1] + (1 - a) * b * prev[j + size_t(wd)] +
+                         a * b * prev[j + size_t(wd) + 1];
+        s.gradient[i] = 0.5f * std::max(std::abs(prev[j + 1] - prev[j - 1]), std::abs(prev[j + size_t(w)] - prev[j - size_t(w)]));
+        sum_previous[size_t(y)] += s.intensity[i];
+        sum_current[size_t(y)] += grey(rgb, i);
+      }
+  });
+  double previous = 0, current = 0;
+  for (int y = 0; y < h; ++y) previous += sum_previous[size_t(y)], current += sum_current[size_t(y)];
+  s.gain = current > 0 ? float(previous / current) : 1.0f;
+  return s;
+}
+
+// LifecycleParams::slide_*: per pixel 1 for the background pixels of superpixels whose image
+// changed since the previous frame more than the camera's motion explains, else 0; empty when
+// there is none (or no previous frame, or the camera is not steady enough for a spawn).
+std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superpixels& superpixels, const float* depth_m,
+                                                      const uint8_t* rgb, const std::vector<uint8_t>& labels) const {
+  const LifecycleParams& p = params_.lifecycle;
+  const size_t n = labels.size();
+  std::vector<uint8_t> changed;
+  if (p.slide_min_shift_px <= 0 || superpixels.label.size() != n || previous_intensity_.size() != n ||
+      previous_depth_m_.size() != n || camera_history_.empty() || !camera_history_.back() ||
+      !spawn_camera_steady(*models_.front()))
+    return changed;
+  const PreviousSamples s = sample_previous(depth_m, rgb, labels);
+  std::vector<int> tested(size_t(superpixels.count), 0), differ(size_t(superpixels.count), 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (s.intensity[i] < 0.0f) continue;
+    const float d = std::abs(s.gain * grey(rgb, i) - s.intensity[i]);
+    ++tested[size_t(superpixels.label[i])];
+    differ[size_t(superpixels.label[i])] += d > p.slide_min_intensity && d > float(p.slide_min_shift_px) * s.gradient[i];
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const size_t sp = size_t(superpixels.label[i]);
+    if (labels[i] != 0 || tested[sp] == 0 || double(differ[sp]) < p.slide_min_fraction * double(tested[sp])) continue;
+    if (changed.empty()) changed.assign(n, 0);
+    changed[i] = 1;
+  }
+  return changed;
 }
 
 // Centroid (camera frame) of a region's live points: a new model's origin, and with the previous

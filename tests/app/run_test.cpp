@@ -577,14 +577,18 @@ TEST(RunCommand, MergeWindowStepIsReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
-TEST(RunCommand, RisingCostEvidenceIsReadAndChecked) {
+TEST(RunCommand, SpawnEvidenceSettingsAreReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   const Result bad = run_with_config(dir, "config.json", R"({"lifecycle": {"rising_min_area_fraction": 1.5}})");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_THAT(bad.output, HasSubstr("rising_min_area_fraction in [0, 1)")) << bad.output;
   const Result negative = run_with_config(dir, "negative.json", R"({"lifecycle": {"rising_min_step_m": -0.001}})");
   EXPECT_NE(negative.exit_code, 0);
-  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"rising_min_step_m": 0}})", "--max-frames 3 ");
+  const Result slide = run_with_config(dir, "slide.json", R"({"lifecycle": {"slide_min_fraction": 2}})");
+  EXPECT_NE(slide.exit_code, 0);
+  EXPECT_THAT(slide.output, HasSubstr("slide_min_fraction at most 1")) << slide.output;
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"rising_min_step_m": 0, "slide_min_shift_px": 0}})",
+                                    "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
