@@ -158,6 +158,7 @@ std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::S
   const int width = intrinsics_.width, height = intrinsics_.height;
   const double n = double(width) * height;
   segmentation::label_components(seg.labels.data(), width, height, std::optional<uint8_t>{}, components_);
+  // Per component: whether it spawns nothing (a mover; below, also changed pixels alone).
   std::vector<char> mover = mark_movers(outlier, slots);
   if (!rising_.empty() || !changed_.empty()) {
     // Rising and changed background pixels (rising_background, changed_since_previous) join the
@@ -227,8 +228,8 @@ std::vector<uint8_t> CoFusion::rising_background(const segmentation::Superpixels
                                                  const std::vector<uint8_t>& labels, uint8_t outlier) {
   const LifecycleParams& p = params_.lifecycle;
   const auto& h = background_cost_history_;
-  const bool history = p.rising_min_step_m > 0 && h.size() == 2 && h[0].first == frame_ - 2 && h[1].first == frame_ - 1 &&
-                       superpixels.label.size() == background_costs.size();
+  const bool history = p.rising_min_step_m > 0 && h.size() == 2 && h[0].first == frame_ - 2 &&
+                       h[1].first == frame_ - 1 && superpixels.label.size() == background_costs.size();
   std::vector<uint8_t> rising;
   if (history && spawn_camera_steady(*models_.front()))
     rising = rising_regions(raised_superpixels(superpixels, background_costs, labels, outlier, p.rising_min_cost_m),
@@ -250,7 +251,7 @@ std::vector<uint8_t> CoFusion::rising_regions(const std::vector<uint8_t>& raised
   segmentation::label_components(raised.data(), intrinsics_.width, intrinsics_.height, std::optional<uint8_t>{0},
                                  rising_components_);
   const double min_pixels = p.rising_min_area_fraction * double(n);
-  // Per component: the sums of the three frames' costs over its pixels with a cost in all three, and their count.
+  // Per component: the three frames' cost sums over its pixels with a cost in all three; their count.
   std::vector<std::array<double, 4>> sums(rising_components_.components.size(), {0, 0, 0, 0});
   for (const auto& run : rising_components_.runs) {
     if (double(rising_components_.components[size_t(run.component)].pixels) < min_pixels) continue;
@@ -263,7 +264,8 @@ std::vector<uint8_t> CoFusion::rising_regions(const std::vector<uint8_t>& raised
   for (const auto& run : rising_components_.runs) {
     const auto& m = sums[size_t(run.component)];
     const double step = p.rising_min_step_m * m[3];
-    if (m[3] < 0.5 * min_pixels || m[2] > p.rising_max_cost_m * m[3] || m[2] - m[1] < step || m[1] - m[0] < step) continue;
+    if (m[3] < 0.5 * min_pixels || m[2] > p.rising_max_cost_m * m[3] || m[2] - m[1] < step || m[1] - m[0] < step)
+      continue;
     if (rising.empty()) rising.assign(n, 0);
     for (size_t i = size_t(run.y) * width + size_t(run.x0); i < size_t(run.y) * width + size_t(run.x1); ++i)
       rising[i] = labels[i] == 0 && now[i] >= p.rising_min_cost_m;
@@ -295,8 +297,9 @@ CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const 
         const size_t i = size_t(y) * size_t(w) + size_t(x);
         const float z = depth_m[i];
         if (labels[i] != 0 || !(z > 0.0f)) continue;
-        const Eigen::Vector3f q = T_previous_current * Eigen::Vector3f((float(x) - float(intrinsics_.cx)) / float(intrinsics_.fx) * z,
-                                                                       (float(y) - float(intrinsics_.cy)) / float(intrinsics_.fy) * z, z);
+        const Eigen::Vector3f p_current((float(x) - float(intrinsics_.cx)) / float(intrinsics_.fx) * z,
+                                        (float(y) - float(intrinsics_.cy)) / float(intrinsics_.fy) * z, z);
+        const Eigen::Vector3f q = T_previous_current * p_current;
         if (!(q.z() > 0.0f)) continue;
         const float u = float(intrinsics_.fx) * q.x() / q.z() + float(intrinsics_.cx);
         const float v = float(intrinsics_.fy) * q.y() / q.z() + float(intrinsics_.cy);
@@ -304,10 +307,11 @@ CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const 
         const size_t j = size_t(int(v)) * size_t(w) + size_t(int(u));
         const float z_previous = previous_depth_m_[j];
         if (!(z_previous > 0.0f) || std::abs(z_previous - q.z()) > 0.02f * q.z() + 0.01f) continue;
-        const float a = u - std::floor(u), b = v - std::floor(v), wd = float(w);
-        s.intensity[i] = (1 - a) * (1 - b) * prev[j] + a * (1 - b) * prev[j + 1] + (1 - a) * b * prev[j + size_t(wd)] +
-                         a * b * prev[j + size_t(wd) + 1];
-        s.gradient[i] = 0.5f * std::max(std::abs(prev[j + 1] - prev[j - 1]), std::abs(prev[j + size_t(w)] - prev[j - size_t(w)]));
+        const float a = u - std::floor(u), b = v - std::floor(v);
+        const size_t row = size_t(w);
+        s.intensity[i] = (1 - a) * (1 - b) * prev[j] + a * (1 - b) * prev[j + 1] + (1 - a) * b * prev[j + row] +
+                         a * b * prev[j + row + 1];
+        s.gradient[i] = 0.5f * std::max(std::abs(prev[j + 1] - prev[j - 1]), std::abs(prev[j + row] - prev[j - row]));
         sum_previous[size_t(y)] += s.intensity[i];
         sum_current[size_t(y)] += grey(rgb, i);
       }
@@ -321,8 +325,9 @@ CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const 
 // LifecycleParams::slide_*: per pixel 1 for the background pixels of superpixels whose image
 // changed since the previous frame more than the camera's motion explains, else 0; empty when
 // there is none (or no previous frame, or the camera is not steady enough for a spawn).
-std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superpixels& superpixels, const float* depth_m,
-                                                      const uint8_t* rgb, const std::vector<uint8_t>& labels) const {
+std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superpixels& superpixels,
+                                                      const float* depth_m, const uint8_t* rgb,
+                                                      const std::vector<uint8_t>& labels) const {
   const LifecycleParams& p = params_.lifecycle;
   const size_t n = labels.size();
   std::vector<uint8_t> changed;
@@ -340,7 +345,8 @@ std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superp
   }
   for (size_t i = 0; i < n; ++i) {
     const size_t sp = size_t(superpixels.label[i]);
-    if (labels[i] != 0 || tested[sp] == 0 || double(differ[sp]) < p.slide_min_fraction * double(tested[sp])) continue;
+    if (labels[i] != 0 || tested[sp] == 0 || double(differ[sp]) < p.slide_min_fraction * double(tested[sp]))
+      continue;
     if (changed.empty()) changed.assign(n, 0);
     changed[i] = 1;
   }
