@@ -893,10 +893,9 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   if (params_.camera_check.enabled || params_.lifecycle.spawn_rigidity.enabled) {
     previous_depth_m_.assign(depth_m, depth_m + n);
   }
-  if (params_.lifecycle.slide_min_shift_px > 0 && rgb) {  // for LifecycleParams::slide_*
+  if (params_.motion_segmentation && params_.lifecycle.slide_min_shift_px > 0 && rgb) {  // LifecycleParams::slide_*
     previous_intensity_.resize(n);
-    for (size_t i = 0; i < n; ++i)
-      previous_intensity_[i] = float(int(rgb[3 * i]) + int(rgb[3 * i + 1]) + int(rgb[3 * i + 2])) / (3.0f * 255.0f);
+    for (size_t i = 0; i < n; ++i) previous_intensity_[i] = grey_level(rgb, i);
   }
   camera_history_.push_back(camera == CameraState::kLost ? std::nullopt : std::optional(T_world_camera_));
   if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();

@@ -28,6 +28,11 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 inline double rotation_deg(const Eigen::Isometry3d& T) { return rotation_angle_rad(T) * 180.0 / M_PI; }
 
+// Grey level in [0, 1] of pixel i of an RGB8 image (the mean of its channels, as rgb_to_intensity).
+inline float grey_level(const uint8_t* rgb, size_t i) {
+  return float(int(rgb[3 * i]) + int(rgb[3 * i + 1]) + int(rgb[3 * i + 2])) * (1.0f / (3.0f * 255.0f));
+}
+
 // Surfels of one model expressed in another frame: T_to_from maps positions, its rotation normals.
 inline void transform_surfels(std::vector<Surfel>& surfels, const Eigen::Isometry3d& T_to_from) {
   const Eigen::Matrix3f R = T_to_from.rotation().cast<float>();

@@ -234,8 +234,15 @@ std::vector<uint8_t> CoFusion::rising_background(const segmentation::Superpixels
   if (history && spawn_camera_steady(*models_.front()))
     rising = rising_regions(raised_superpixels(superpixels, background_costs, labels, outlier, p.rising_min_cost_m),
                             {&h[0].second, &h[1].second, &background_costs}, labels);
-  background_cost_history_.emplace_back(frame_, background_costs);
-  while (background_cost_history_.size() > 2) background_cost_history_.pop_front();
+  if (p.rising_min_step_m > 0) {  // the history, reusing the oldest frame's storage
+    std::vector<float> costs;
+    if (background_cost_history_.size() == 2) {
+      costs = std::move(background_cost_history_.front().second);
+      background_cost_history_.pop_front();
+    }
+    costs.assign(background_costs.begin(), background_costs.end());
+    background_cost_history_.emplace_back(frame_, std::move(costs));
+  }
   return rising;
 }
 
@@ -273,12 +280,6 @@ std::vector<uint8_t> CoFusion::rising_regions(const std::vector<uint8_t>& raised
   return rising;
 }
 
-namespace {
-float grey(const uint8_t* rgb, size_t i) {  // in [0, 1]
-  return float(int(rgb[3 * i]) + int(rgb[3 * i + 1]) + int(rgb[3 * i + 2])) * (1.0f / (3.0f * 255.0f));
-}
-}  // namespace
-
 // The previous frame's grey level (bilinear) and gradient (the larger central difference, per
 // pixel) where the camera's motion puts each background pixel of this frame, if the previous frame
 // saw a surface at that depth there (else -1); and the frames' exposure ratio over those pixels.
@@ -313,7 +314,7 @@ CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const 
                          a * b * prev[j + row + 1];
         s.gradient[i] = 0.5f * std::max(std::abs(prev[j + 1] - prev[j - 1]), std::abs(prev[j + row] - prev[j - row]));
         sum_previous[size_t(y)] += s.intensity[i];
-        sum_current[size_t(y)] += grey(rgb, i);
+        sum_current[size_t(y)] += grey_level(rgb, i);
       }
   });
   double previous = 0, current = 0;
@@ -339,7 +340,7 @@ std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superp
   std::vector<int> tested(size_t(superpixels.count), 0), differ(size_t(superpixels.count), 0);
   for (size_t i = 0; i < n; ++i) {
     if (s.intensity[i] < 0.0f) continue;
-    const float d = std::abs(s.gain * grey(rgb, i) - s.intensity[i]);
+    const float d = std::abs(s.gain * grey_level(rgb, i) - s.intensity[i]);
     ++tested[size_t(superpixels.label[i])];
     differ[size_t(superpixels.label[i])] += d > p.slide_min_intensity && d > float(p.slide_min_shift_px) * s.gradient[i];
   }
