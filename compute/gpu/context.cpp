@@ -236,12 +236,13 @@ Context::Context(const ContextOptions& options) : options_(options) {
   create_device();
 }
 
-// The logical device with every queue of the compute family (at most 8) and the features used
+// The logical device with every queue of the compute family (at most 8, or max_compute_queues) and the features used
 // where present.
 void Context::create_device() {
   queue_family_ = *pick_compute_family(physical_device_);
   const auto families = physical_device_.getQueueFamilyProperties();
-  const uint32_t queue_count = std::min<uint32_t>(families[queue_family_].queueCount, 8);
+  uint32_t queue_count = std::min<uint32_t>(families[queue_family_].queueCount, 8);
+  if (options_.max_compute_queues > 0) queue_count = std::min(queue_count, options_.max_compute_queues);
   features_.timestamp_valid_bits = families[queue_family_].timestampValidBits;
   std::vector<float> priorities(queue_count, 1.0f);
   vk::DeviceQueueCreateInfo queue_info{.queueFamilyIndex = queue_family_,

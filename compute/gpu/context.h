@@ -28,6 +28,9 @@ struct ContextOptions {
   // Never map device buffers even when their memory is host-visible, so every upload/download
   // takes the staging path that discrete GPUs need. For tests of that path on lavapipe.
   bool force_staging = false;
+  // At most this many compute queues (0: every queue of the family, up to 8). With 1, per-model
+  // work shares one queue as on lavapipe: for measuring whether several queues run concurrently.
+  uint32_t max_compute_queues = 0;
   // Called for every validation message of error severity (after it is counted and printed).
   // Tests turn it into a test failure.
   std::function<void(const std::string& message)> on_validation_error;

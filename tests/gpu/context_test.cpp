@@ -73,6 +73,17 @@ TEST_F(ComputeCore, HandsOutOneQueuePerWorkerOrSharesTheOnlyOne) {
   }
 }
 
+TEST_F(ComputeCore, LimitsTheComputeQueuesWhenAsked) {
+  auto one = validated_options();
+  one.max_compute_queues = 1;
+  gpu::Context single(one);
+  EXPECT_EQ(single.compute_queue_count(), 1u);
+  EXPECT_EQ(&single.queue_for_worker(0), &single.queue_for_worker(3));
+  auto all = validated_options();
+  all.max_compute_queues = 0;
+  EXPECT_EQ(gpu::Context(all).compute_queue_count(), ctx().compute_queue_count());
+}
+
 TEST_F(ComputeCore, DispatchWritesEveryElementForEdgeSizes) {
   const auto p = fill_pipeline();
   for (uint32_t count : {1u, 63u, 64u, 65u, 1000u, 640u * 480u}) {
