@@ -37,9 +37,9 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
   if (usage == BufferUsage::Staging) {
     type = ctx.find_memory_type(requirements.memoryTypeBits, P::eHostVisible | P::eHostCoherent, P::eHostCached, name);
     map = true;
-  } else if (!ctx.options().force_staging && features.device_local_memory_is_host_visible) {
-    type = ctx.find_memory_type(requirements.memoryTypeBits, P::eDeviceLocal | P::eHostVisible | P::eHostCoherent, {},
-                                name);
+  } else if (!ctx.options().force_staging && features.device_local_memory_is_host_cached) {
+    type = ctx.find_memory_type(requirements.memoryTypeBits,
+                                P::eDeviceLocal | P::eHostVisible | P::eHostCoherent | P::eHostCached, {}, name);
     map = true;
   } else {
     type = ctx.find_memory_type(requirements.memoryTypeBits, P::eDeviceLocal, {}, name);

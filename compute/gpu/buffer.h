@@ -1,7 +1,7 @@
 #pragma once
-// A storage buffer and its memory. Device buffers are host-mapped when their memory is
-// host-visible (lavapipe, resizable-BAR GPUs); otherwise uploads and downloads go through a
-// staging buffer. Buffers are shared_ptr-owned so a command list can keep the ones it uses alive
+// A storage buffer and its memory. Device buffers are host-mapped where device-local memory is
+// also host-cached (unified memory: lavapipe, integrated GPUs); otherwise (discrete GPUs, with or
+// without resizable BAR) uploads and downloads go through a staging buffer. Buffers are shared_ptr-owned so a command list can keep the ones it uses alive
 // until its submission has finished on the GPU.
 #include <cstddef>
 #include <memory>
@@ -13,7 +13,7 @@
 namespace cofusion::gpu {
 
 enum class BufferUsage {
-  Device,   // working storage of kernels (device-local; mapped only if also host-visible)
+  Device,   // working storage of kernels (device-local; mapped only on unified memory)
   Staging,  // host-visible, host-coherent transfer source/destination
 };
 

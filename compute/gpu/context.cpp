@@ -198,9 +198,9 @@ DeviceFeatures query_features(const vk::raii::PhysicalDevice& device) {
       f.device_local_heap_bytes = std::max<uint64_t>(f.device_local_heap_bytes, memory.memoryHeaps[h].size);
   for (uint32_t t = 0; t < memory.memoryTypeCount; ++t) {
     const auto flags = memory.memoryTypes[t].propertyFlags;
-    if ((flags & vk::MemoryPropertyFlagBits::eDeviceLocal) && (flags & vk::MemoryPropertyFlagBits::eHostVisible) &&
-        (flags & vk::MemoryPropertyFlagBits::eHostCoherent))
-      f.device_local_memory_is_host_visible = true;
+    using P = vk::MemoryPropertyFlagBits;
+    const auto unified = P::eDeviceLocal | P::eHostVisible | P::eHostCoherent | P::eHostCached;
+    if ((flags & unified) == unified) f.device_local_memory_is_host_cached = true;
   }
   if (has_extension(device.enumerateDeviceExtensionProperties(), VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME)) {
     const auto fa = device.getFeatures2<vk::PhysicalDeviceFeatures2, vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT>();

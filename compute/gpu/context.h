@@ -62,7 +62,11 @@ struct DeviceFeatures {
   uint64_t max_storage_buffer_range = 0;
   uint64_t max_memory_allocation_size = 0;
   uint64_t device_local_heap_bytes = 0;
-  bool device_local_memory_is_host_visible = false;
+  // A device-local memory type that is also host-visible, coherent and cached: unified memory
+  // (lavapipe, integrated GPUs), where the host reads mapped device buffers at memory speed.
+  // Discrete GPUs with resizable BAR offer device-local host-visible memory too, but uncached:
+  // host reads from it are orders of magnitude slower, so there buffers use staging instead.
+  bool device_local_memory_is_host_cached = false;
   uint32_t max_compute_workgroup_invocations = 0;
   float timestamp_period_ns = 0;
   uint32_t timestamp_valid_bits = 0;  // of the compute queue family; 0: no timestamps

@@ -219,6 +219,14 @@ void Stream::run(const std::function<void(CommandList&)>& record) {
   wait(submit(std::move(list)));
 }
 
+const BufferPtr& Stream::staging(size_t bytes) {
+  if (!staging_ || staging_->size() < bytes) {
+    const size_t grown = staging_ ? std::max(bytes, staging_->size() + staging_->size() / 2) : bytes;
+    staging_ = Buffer::create(ctx_, grown, name_ + " staging", BufferUsage::Staging);
+  }
+  return staging_;
+}
+
 void Stream::upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset) {
   if (bytes == 0) return;
   if (dst_offset + bytes > dst->size())
@@ -229,7 +237,7 @@ void Stream::upload(const BufferPtr& dst, const void* src, size_t bytes, size_t 
     std::memcpy(static_cast<char*>(dst->mapped()) + dst_offset, src, bytes);
     return;
   }
-  auto staging = Buffer::create(ctx_, bytes, dst->name() + " upload staging", BufferUsage::Staging);
+  const BufferPtr& staging = this->staging(bytes);
   std::memcpy(staging->mapped(), src, bytes);
   run([&](CommandList& cmd) { cmd.copy(staging, dst, bytes, 0, dst_offset); });
 }
@@ -244,7 +252,7 @@ void Stream::download(const BufferPtr& src, void* dst, size_t bytes, size_t src_
     std::memcpy(dst, static_cast<const char*>(src->mapped()) + src_offset, bytes);
     return;
   }
-  auto staging = Buffer::create(ctx_, bytes, src->name() + " download staging", BufferUsage::Staging);
+  const BufferPtr& staging = this->staging(bytes);
   run([&](CommandList& cmd) { cmd.copy(src, staging, bytes, src_offset, 0); });
   std::memcpy(dst, staging->mapped(), bytes);
 }

@@ -99,7 +99,7 @@ class Stream {
   // Record, submit and wait: for synchronous work (tests, set-up, benchmarks).
   void run(const std::function<void(CommandList&)>& record);
   // Synchronous transfers. They first wait for this stream's earlier work; mapped buffers are
-  // copied directly, others through a temporary staging buffer.
+  // copied directly, others through this stream's staging buffer (kept, grown as needed).
   void upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset = 0);
   void download(const BufferPtr& src, void* dst, size_t bytes, size_t src_offset = 0);
   template <typename T>
@@ -127,6 +127,9 @@ class Stream {
     std::unique_ptr<CommandList::Timing> timing;
   };
   void collect_finished();
+  // The staging buffer, at least `bytes` large. Only synchronous transfers use it, after waiting
+  // for every earlier submission, so one buffer serves them all.
+  const BufferPtr& staging(size_t bytes);
 
   Context& ctx_;
   Queue& queue_;
@@ -137,6 +140,7 @@ class Stream {
   uint64_t next_value_ = 0;
   std::deque<InFlight> in_flight_;
   std::vector<vk::raii::CommandBuffer> recycled_;
+  BufferPtr staging_;
 };
 
 }  // namespace cofusion::gpu

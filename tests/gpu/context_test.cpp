@@ -189,7 +189,7 @@ TEST_F(ComputeCore, UploadAndDownloadRoundTripThroughMappingAndStaging) {
   std::vector<float> data(12345);
   std::iota(data.begin(), data.end(), 0.5f);
   auto b = gpu::Buffer::create(ctx(), data.size() * 4, "round trip");
-  EXPECT_EQ(b->mapped() != nullptr, ctx().features().device_local_memory_is_host_visible);
+  EXPECT_EQ(b->mapped() != nullptr, ctx().features().device_local_memory_is_host_cached);
   stream().upload<float>(b, data);
   EXPECT_EQ(stream().download<float>(b, data.size()), data);
 

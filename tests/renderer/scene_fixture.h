@@ -4,6 +4,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "common/surfel_cloud.h"
@@ -98,6 +100,21 @@ inline double mismatch_share(const renderer::Image& a, const renderer::Image& b,
       }
     }
   return a.rgba.empty() ? 0.0 : static_cast<double>(bad) / static_cast<double>(a.rgba.size());
+}
+
+// The first pixel where some channel differs by more than `tolerance`, as "(x, y): a 0x.., b 0x..",
+// for failure messages; "" when none does.
+inline std::string first_mismatch(const renderer::Image& a, const renderer::Image& b, int tolerance) {
+  for (size_t i = 0; i < a.rgba.size() && i < b.rgba.size(); ++i)
+    for (int c = 0; c < 32; c += 8) {
+      const int d = static_cast<int>((a.rgba[i] >> c) & 0xFF) - static_cast<int>((b.rgba[i] >> c) & 0xFF);
+      if (std::abs(d) <= tolerance) continue;
+      std::ostringstream out;
+      out << "(" << i % a.width << ", " << i / a.width << "): " << std::hex << "0x" << a.rgba[i] << " against 0x"
+          << b.rgba[i];
+      return out.str();
+    }
+  return "";
 }
 
 }  // namespace cofusion::test

@@ -38,7 +38,8 @@ TEST_F(ViewRendererTest, MatchesCpuReferenceAcrossSizes) {
     const Image gpu = renderer.render(stream(), std::span<const SurfelCloud>(scene), cam, params);
     const Image cpu = renderer::render_reference(scene, cam, params);
     ASSERT_EQ(gpu.rgba.size(), cpu.rgba.size());
-    EXPECT_LE(mismatch_share(gpu, cpu, kChannelTolerance), kMaxMismatchShare);
+    EXPECT_LE(mismatch_share(gpu, cpu, kChannelTolerance), kMaxMismatchShare)
+        << "first mismatch, GPU against CPU: " << first_mismatch(gpu, cpu, kChannelTolerance);
     // Not trivially equal: the scene covers part of the image, the background the rest.
     if (size.width >= 160) {
       size_t background = 0;

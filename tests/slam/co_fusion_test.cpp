@@ -525,30 +525,13 @@ TEST_F(CoFusionScenes, CameraLossSceneRecoversAfterCoverAndWhipPanSlow) {
 // Reproducible runs: the same input twice in one process gives bit-identical camera poses, labels,
 // model poses and surfel counts in every frame, and bit-identical surfel buffers at the end (new
 // and kept surfels take their places in a fixed order; reductions sum in a fixed order). The first
-// 40 frames of two_objects: the box starts moving at frame 8 and gets a model of its own. The
-// second run fills every heap block glibc hands out with 0xA5 bytes (mallopt M_PERTURB; lavapipe's
-// device memory is heap memory), so a kernel that reads memory no one wrote this frame (an
-// index-map row fusion did not clear) shows as a difference.
-TEST_F(CoFusionScenes, TwoRunsOfOneSceneAreBitIdentical) {
-  const synthetic::SyntheticSequence seq(synthetic::load_scene("two_objects"), 0, 40);
-  struct Run {
-    std::vector<slam::CoFusionFrame> frames;
-    std::map<int, std::vector<Surfel>> surfels;  // per model id, at the end
-  };
-  const auto run_once = [&] {
-    Run out;
-    CoFusion slam(ctx(), seq.intrinsics(), {});
-    for (int f = 0; f < seq.size(); ++f) {
-      const Frame frame = seq.frame(f);
-      out.frames.push_back(slam.process(frame.depth_m.ptr<float>(), frame.rgb.data));
-    }
-    for (const auto& m : slam.models()) out.surfels[m.id] = m.model->download(stream());
-    return out;
-  };
-  const Run a = run_once();
-  mallopt(M_PERTURB, 0xA5);
-  const Run b = run_once();
-  mallopt(M_PERTURB, 0);
+// What one run of a scene gives: every frame's result and each model's surfels at the end.
+struct SceneResult {
+  std::vector<slam::CoFusionFrame> frames;
+  std::map<int, std::vector<Surfel>> surfels;  // per model id
+};
+
+void expect_identical_runs(const SceneResult& a, const SceneResult& b) {
   ASSERT_EQ(a.frames.size(), b.frames.size());
   for (size_t f = 0; f < a.frames.size(); ++f) {
     const auto &fa = a.frames[f], &fb = b.frames[f];
@@ -569,6 +552,36 @@ TEST_F(CoFusionScenes, TwoRunsOfOneSceneAreBitIdentical) {
     ASSERT_EQ(surfels.size(), other.size()) << "model " << id;
     EXPECT_EQ(std::memcmp(surfels.data(), other.data(), surfels.size() * sizeof(Surfel)), 0) << "model " << id;
   }
+}
+
+// 40 frames of two_objects: the box starts moving at frame 8 and gets a model of its own. The
+// second run fills every heap block glibc hands out with 0xA5 bytes (mallopt M_PERTURB; lavapipe's
+// device memory is heap memory), so a kernel that reads memory no one wrote this frame (an
+// index-map row fusion did not clear) shows as a difference. A third run moves every upload and
+// download through staging buffers, as on discrete GPUs, where device memory is not mapped.
+TEST_F(CoFusionScenes, RunsOfOneSceneAreBitIdenticalAlsoThroughStaging) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("two_objects"), 0, 40);
+  const auto run_once = [&](gpu::Context& context) {
+    SceneResult out;
+    CoFusion slam(context, seq.intrinsics(), {});
+    for (int f = 0; f < seq.size(); ++f) {
+      const Frame frame = seq.frame(f);
+      out.frames.push_back(slam.process(frame.depth_m.ptr<float>(), frame.rgb.data));
+    }
+    gpu::Stream download(context, 0, "download");
+    for (const auto& m : slam.models()) out.surfels[m.id] = m.model->download(download);
+    return out;
+  };
+  const SceneResult a = run_once(ctx());
+  mallopt(M_PERTURB, 0xA5);
+  const SceneResult b = run_once(ctx());
+  mallopt(M_PERTURB, 0);
+  expect_identical_runs(a, b);
+  auto staging_options = validated_options();
+  staging_options.force_staging = true;
+  gpu::Context staging_context(staging_options);
+  SCOPED_TRACE("through staging buffers");
+  expect_identical_runs(a, run_once(staging_context));
 }
 
 TEST_F(CoFusionScenes, WithoutMotionSegmentationEverythingIsBackground) {
