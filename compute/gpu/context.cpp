@@ -236,13 +236,26 @@ Context::Context(const ContextOptions& options) : options_(options) {
   create_device();
 }
 
+// How many compute queues to use when ContextOptions::max_compute_queues leaves it to the device.
+// On NVIDIA one: with 3-6 models this pipeline's many small synchronous submissions (one per ICP
+// iteration and model) took 1.6-1.8x longer per frame on 8 queues than on one (H200, driver 580;
+// docs/experiments.md). Elsewhere every queue the family offers (up to 8): not measured worse.
+namespace {
+uint32_t default_compute_queues(const vk::PhysicalDeviceProperties& properties) {
+  constexpr uint32_t kNvidiaVendorId = 0x10DE;
+  return properties.vendorID == kNvidiaVendorId ? 1u : 8u;
+}
+}  // namespace
+
 // The logical device with every queue of the compute family (at most 8, or max_compute_queues) and the features used
 // where present.
 void Context::create_device() {
   queue_family_ = *pick_compute_family(physical_device_);
   const auto families = physical_device_.getQueueFamilyProperties();
-  uint32_t queue_count = std::min<uint32_t>(families[queue_family_].queueCount, 8);
-  if (options_.max_compute_queues > 0) queue_count = std::min(queue_count, options_.max_compute_queues);
+  offered_queue_count_ = families[queue_family_].queueCount;
+  const uint32_t limit = options_.max_compute_queues > 0 ? options_.max_compute_queues
+                                                         : default_compute_queues(physical_device_.getProperties());
+  const uint32_t queue_count = std::min({offered_queue_count_, limit, 8u});
   features_.timestamp_valid_bits = families[queue_family_].timestampValidBits;
   std::vector<float> priorities(queue_count, 1.0f);
   vk::DeviceQueueCreateInfo queue_info{.queueFamilyIndex = queue_family_,
@@ -303,7 +316,8 @@ Context::~Context() {
 
 std::string Context::description() const {
   return info_.name + " [" + info_.type + ", Vulkan " + version_string(info_.api_version) + "], " +
-         std::to_string(queues_.size()) + " compute queue" + (queues_.size() == 1 ? "" : "s");
+         std::to_string(queues_.size()) + " of " + std::to_string(offered_queue_count_) + " compute queue" +
+         (offered_queue_count_ == 1 ? "" : "s");
 }
 
 uint32_t Context::find_memory_type(uint32_t type_bits, vk::MemoryPropertyFlags required,

@@ -28,8 +28,8 @@ struct ContextOptions {
   // Never map device buffers even when their memory is host-visible, so every upload/download
   // takes the staging path that discrete GPUs need. For tests of that path on lavapipe.
   bool force_staging = false;
-  // At most this many compute queues (0: every queue of the family, up to 8). With 1, per-model
-  // work shares one queue as on lavapipe: for measuring whether several queues run concurrently.
+  // At most this many compute queues (0: the device's default: one on NVIDIA, where several ran
+  // slower, else every queue of the family, up to 8). With 1, per-model work shares one queue.
   uint32_t max_compute_queues = 0;
   // Called for every validation message of error severity (after it is counted and printed).
   // Tests turn it into a test failure.
@@ -104,7 +104,7 @@ class Context {
   const DeviceInfo& info() const { return info_; }
   const DeviceFeatures& features() const { return features_; }
   const ContextOptions& options() const { return options_; }
-  // e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu, Vulkan 1.3.230], 1 compute queue"
+  // e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu, Vulkan 1.3.230], 1 of 1 compute queue"
   std::string description() const;
   bool is_software() const { return info_.type == "cpu"; }
 
@@ -158,6 +158,7 @@ class Context {
   bool debug_utils_ = false;
   uint32_t queue_family_ = 0;
   std::vector<std::unique_ptr<Queue>> queues_;
+  uint32_t offered_queue_count_ = 0;  // queues of the chosen family
   std::atomic<size_t> validation_errors_{0};
   std::shared_ptr<KernelProfile> kernel_profile_;
   std::shared_ptr<DeviceMemoryCounter> memory_ = std::make_shared<DeviceMemoryCounter>();

@@ -88,8 +88,8 @@ inline renderer::VirtualCamera test_camera(int width, int height) {
   return cam;
 }
 
-// Share of pixels where some channel differs by more than `tolerance`.
-inline double mismatch_share(const renderer::Image& a, const renderer::Image& b, int tolerance) {
+// Number of pixels where some channel differs by more than `tolerance`.
+inline size_t mismatch_count(const renderer::Image& a, const renderer::Image& b, int tolerance) {
   size_t bad = 0;
   for (size_t i = 0; i < a.rgba.size(); ++i)
     for (int c = 0; c < 32; c += 8) {
@@ -99,7 +99,12 @@ inline double mismatch_share(const renderer::Image& a, const renderer::Image& b,
         break;
       }
     }
-  return a.rgba.empty() ? 0.0 : static_cast<double>(bad) / static_cast<double>(a.rgba.size());
+  return bad;
+}
+
+// Share of pixels where some channel differs by more than `tolerance`.
+inline double mismatch_share(const renderer::Image& a, const renderer::Image& b, int tolerance) {
+  return a.rgba.empty() ? 0.0 : static_cast<double>(mismatch_count(a, b, tolerance)) / static_cast<double>(a.rgba.size());
 }
 
 // The first pixel where some channel differs by more than `tolerance`, as "(x, y): a 0x.., b 0x..",
