@@ -227,6 +227,18 @@ const BufferPtr& Stream::staging(size_t bytes) {
   return staging_;
 }
 
+const void* Stream::record_download(CommandList& cmd, const BufferPtr& src, size_t bytes, size_t src_offset) {
+  if (src_offset + bytes > src->size())
+    throw Error("download of " + std::to_string(bytes) + " bytes from '" + src->name() + "' (" + std::to_string(src->size()) +
+                " bytes) is out of range");
+  if (src->mapped()) return static_cast<const char*>(src->mapped()) + src_offset;
+  if (!readback_ || readback_->size() < bytes)
+    readback_ = Buffer::create(ctx_, std::max<size_t>(bytes, 4), name_ + " readback", BufferUsage::Staging);
+  cmd.barrier();
+  cmd.copy(src, readback_, bytes, src_offset, 0);
+  return readback_->mapped();
+}
+
 void Stream::upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset) {
   if (bytes == 0) return;
   if (dst_offset + bytes > dst->size())

@@ -102,6 +102,12 @@ class Stream {
   // copied directly, others through this stream's staging buffer (kept, grown as needed).
   void upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset = 0);
   void download(const BufferPtr& src, void* dst, size_t bytes, size_t src_offset = 0);
+  // A download recorded into `cmd` after its earlier work, so one submission computes and reads
+  // back: returns where the host finds the `bytes` of `src` (from `src_offset`) once that
+  // submission has completed (wait for it). The pointer is `src`'s own mapping where it has one,
+  // else this stream's readback buffer, which the next recorded download reuses: one such
+  // download in flight per stream.
+  const void* record_download(CommandList& cmd, const BufferPtr& src, size_t bytes, size_t src_offset = 0);
   template <typename T>
   void upload(const BufferPtr& dst, std::span<const T> data) {
     upload(dst, data.data(), data.size_bytes());
@@ -141,6 +147,7 @@ class Stream {
   std::deque<InFlight> in_flight_;
   std::vector<vk::raii::CommandBuffer> recycled_;
   BufferPtr staging_;
+  BufferPtr readback_;
 };
 
 }  // namespace cofusion::gpu

@@ -4,8 +4,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <cstring>
+#include <limits>
 #include <functional>
 #include <numeric>
 #include <span>
@@ -328,14 +329,15 @@ void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
 // The per-pixel residuals of the live frame against the model's prediction (the live frame taken
 // to the prediction's view by T_prediction_live), over its residual rectangle, read back.
 void CoFusion::compute_residuals(Model& m) {
-  m.stream.run([&](gpu::CommandList& cmd) {
-    motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.T_prediction_live, m.residuals, m.residual_rect,
-                      m.tracking.live_intensity_gain);
-  });
   m.residuals_host.resize(slots_.size() * 4);
   const size_t row_floats = size_t(intrinsics_.width) * 4, offset = size_t(m.residual_rect.y0) * row_floats;
-  m.stream.download(m.residuals, m.residuals_host.data() + offset,
-                    size_t(m.residual_rect.height()) * row_floats * sizeof(float), offset * sizeof(float));
+  const size_t bytes = size_t(m.residual_rect.height()) * row_floats * sizeof(float);
+  gpu::CommandList cmd = m.stream.begin();
+  motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.T_prediction_live, m.residuals, m.residual_rect,
+                    m.tracking.live_intensity_gain);
+  const void* host = m.stream.record_download(cmd, m.residuals, bytes, offset * sizeof(float));
+  m.stream.wait(m.stream.submit(std::move(cmd)));
+  std::memcpy(m.residuals_host.data() + offset, host, bytes);
   m.settled = true;
 }
 

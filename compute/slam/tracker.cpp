@@ -130,13 +130,13 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
                 reference.gradient, partials_, live.gradient, live_depth},
                p, groups);
-  stream.submit(std::move(cmd));
-  std::vector<float> partials(static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE);
-  stream.download(partials_, partials.data(), partials.size() * sizeof(float));
+  const size_t partial_floats = static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE;
+  const auto* partials = static_cast<const float*>(stream.record_download(cmd, partials_, partial_floats * sizeof(float)));
+  stream.wait(stream.submit(std::move(cmd)));
 
   LinearSystemSums sums;
   for (uint32_t g = 0; g < groups; ++g) {
-    const float* part = partials.data() + static_cast<size_t>(g) * ICP_RGB_PARTIAL_STRIDE;
+    const float* part = partials + static_cast<size_t>(g) * ICP_RGB_PARTIAL_STRIDE;
     for (int i = 0; i < ICP_RGB_TERM_VALUES; ++i) {
       sums.icp[i] += part[ICP_RGB_OFFSET_ICP + i];
       sums.rgb[i] += part[ICP_RGB_OFFSET_RGB + i];

@@ -209,6 +209,34 @@ TEST_F(ComputeCore, UploadAndDownloadRoundTripThroughMappingAndStaging) {
   EXPECT_EQ(staging_ctx.validation_error_count(), 0u);
 }
 
+// A kernel's result read back in the submission that computes it: mapped (lavapipe) and through
+// the readback buffer (as on discrete GPUs), for edge sizes and an offset.
+TEST_F(ComputeCore, RecordedDownloadReadsTheResultOfItsOwnSubmission) {
+  auto staging_options = validated_options();
+  staging_options.force_staging = true;
+  gpu::Context staging_ctx(staging_options);
+  for (gpu::Context* c : {&ctx(), &staging_ctx}) {
+    SCOPED_TRACE(c == &ctx() ? "fixture context" : "staging context");
+    gpu::Stream s(*c, 0, "recorded download");
+    gpu::ComputePipeline p(*c, "test_fill", shaders::test_fill_comp(), 1, sizeof(gpu_layout::TestFillParams));
+    for (uint32_t count : {1u, 63u, 64u, 65u, 1000u}) {
+      auto b = gpu::Buffer::create(*c, (count + 3) * 4, "filled");
+      auto cmd = s.begin();
+      cmd.dispatch(p, {b}, gpu_layout::TestFillParams{count + 3, 5}, gpu::group_count(count + 3, 64));
+      const auto* host = static_cast<const uint32_t*>(s.record_download(cmd, b, count * 4, 3 * 4));
+      s.wait(s.submit(std::move(cmd)));
+      std::vector<uint32_t> expected(count);
+      std::iota(expected.begin(), expected.end(), 8u);
+      EXPECT_EQ(std::vector<uint32_t>(host, host + count), expected) << count << " elements";
+    }
+    auto cmd = s.begin();
+    auto small = gpu::Buffer::create(*c, 16, "small readback source");
+    EXPECT_THAT([&] { s.record_download(cmd, small, 16, 4); },
+                ThrowsMessage<Error>(HasSubstr("small readback source")));
+  }
+  EXPECT_EQ(staging_ctx.validation_error_count(), 0u);
+}
+
 TEST_F(ComputeCore, OutOfRangeTransfersAndHugeBuffersFailWithTheirNames) {
   auto b = gpu::Buffer::create(ctx(), 16, "small buffer");
   std::vector<uint8_t> big(64);
