@@ -52,9 +52,12 @@ std::vector<PixelRect> slot_rects(const std::vector<uint8_t>& slots, int width, 
   std::vector<PixelRect> rects(256, PixelRect{width, height, 0, 0});
   for (int y = 0; y < height; ++y) {
     const uint8_t* row = slots.data() + size_t(y) * size_t(width);
-    for (int x = 0; x < width; ++x) {
-      PixelRect& r = rects[row[x]];
-      r.x0 = std::min(r.x0, x), r.x1 = std::max(r.x1, x + 1);
+    for (int x = 0; x < width;) {  // one update per run of equal slots
+      const uint8_t slot = row[x];
+      const int x0 = x;
+      while (x < width && row[x] == slot) ++x;
+      PixelRect& r = rects[slot];
+      r.x0 = std::min(r.x0, x0), r.x1 = std::max(r.x1, x);
       r.y0 = std::min(r.y0, y), r.y1 = std::max(r.y1, y + 1);
     }
   }
