@@ -523,9 +523,9 @@ CameraState CoFusion::track_or_relocalise(const std::vector<Model*>& active, con
     for_each_model(active, [&](Model& m) { predict_model(m, preprocessed); });
     stage("predict");
     std::string refusal;
-    const CameraState camera = track_models(active, depth_m, refusal);
+    const CameraState camera = track_models(active, depth_m, refusal, stage);
     if (!refusal.empty()) out.events.push_back("frame " + std::to_string(frame_) + ": " + refusal);
-    stage("track");
+    stage("residuals");
     return camera;
   }
   const std::vector<float> depth_not_excluded = depth_outside_excluded(depth_m);
@@ -610,16 +610,20 @@ void CoFusion::for_each_model(const std::vector<Model*>& models, const Work& wor
 // Tracks every active model. The camera's (the background's) motion is checked against the
 // previous frame (`refusal` says why when it was replaced); when its tracking fails and the
 // previous frame cannot stand in, the camera is lost and every model holds still. Else each
-// model's residuals are computed.
-CameraState CoFusion::track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal) {
+// model's residuals are computed. Stages: "track" (every model's ICP), "check camera" (the
+// camera's motion checked and pulled towards the keyframes), then the caller's "residuals".
+CameraState CoFusion::track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal,
+                                   const std::function<void(const char*)>& stage) {
   Model& bg = *active.front();
   for_each_model(active, [&](Model& m) {
     if (!m.resting) track_model(m);
   });
+  stage("track");
   std::optional<CameraFits> fits;
   if (params_.camera_check.enabled && !previous_depth_m_.empty()) fits = camera_fits(bg, depth_m);
   retry_camera_tracking(bg, depth_m, fits);
   refusal = check_camera_motion(bg, depth_m, fits);
+  stage("check camera");
   if (bg.tracking.failed) {
     lost_ = true;
     hold_still(active, bg.tracking.failure_reason);

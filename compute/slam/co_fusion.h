@@ -417,7 +417,8 @@ class CoFusion {
                                   const std::function<void(const char*)>& stage);
   template <typename Work>
   static void for_each_model(const std::vector<Model*>& models, const Work& work);
-  CameraState track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal);
+  CameraState track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal,
+                           const std::function<void(const char*)>& stage);
   CameraFits camera_fits(const Model& bg, const float* depth_m) const;
   void retry_camera_tracking(Model& bg, const float* depth_m, std::optional<CameraFits>& fits);
   bool tracked_poses_agree(const Model& bg, const float* depth_m, const CameraFits& f);
