@@ -16,6 +16,7 @@
 
 #include "common/se3.h"
 #include "common/window_count.h"
+#include "segmentation/depthless_labels.h"
 #include "shared/depth_noise.h"
 
 namespace cofusion::slam {
@@ -510,6 +511,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   fuse_models(spawned_slots);
   stage("fuse");
   finish_frame(camera, encoding, depth_m, rgb, out);
+  if (segmenting && camera != CameraState::kLost)
+    segmentation::label_depthless_pixels(out.labels, *superpixels, depth_m, uint16_t{0xFFFF});
   return out;
 }
 

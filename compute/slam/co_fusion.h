@@ -345,7 +345,9 @@ struct CoFusionFrame {
   TrackingResult camera_tracking;  // the background's tracking (default on the first frame)
   std::vector<ModelStatus> active;  // after this frame's lifecycle changes; background first
   std::vector<std::string> events;  // one line each: spawned, merged, deactivated, re-activated, re-found, deleted
-  std::vector<uint16_t> labels;     // per pixel: model id, 0xFFFF = no model (no depth, or unassigned)
+  // Per pixel: model id, 0xFFFF = no model (unassigned, excluded, or no depth). Pixels without
+  // depth take the model of most of their superpixel's pixels with depth (motion segmentation).
+  std::vector<uint16_t> labels;
   std::vector<std::pair<std::string, double>> stage_ms;  // wall-clock per stage, in order
   // CPU segmentation: superpixels (run while the GPU tracks) and the rest (after tracking).
   double superpixels_ms = 0;
