@@ -9,12 +9,15 @@
 namespace cofusion::segmentation {
 
 void label_depthless_pixels(std::span<uint16_t> labels, const Superpixels& superpixels, const float* depth_m,
-                            uint16_t none) {
+                            uint16_t none, std::span<const uint8_t> excluded) {
   const size_t n = static_cast<size_t>(superpixels.width) * static_cast<size_t>(superpixels.height);
   if (labels.size() != n || superpixels.label.size() != n)
     throw Error("label_depthless_pixels: " + std::to_string(labels.size()) + " labels and " +
                 std::to_string(superpixels.label.size()) + " superpixel labels for " + std::to_string(n) + " pixels");
   if (n > 0 && !depth_m) throw Error("label_depthless_pixels: no depth image");
+  if (!excluded.empty() && excluded.size() != n)
+    throw Error("label_depthless_pixels: " + std::to_string(excluded.size()) + " exclusion flags for " +
+                std::to_string(n) + " pixels");
   const auto has_depth = [&](size_t i) { return std::isfinite(depth_m[i]) && depth_m[i] > 0.0f; };
   // Per superpixel, over its pixels with depth: the majority candidate (Boyer-Moore), then its votes.
   const size_t count = static_cast<size_t>(superpixels.count);
@@ -30,7 +33,7 @@ void label_depthless_pixels(std::span<uint16_t> labels, const Superpixels& super
   for (size_t i = 0; i < n; ++i)
     if (has_depth(i)) votes[size_t(superpixels.label[i])] += labels[i] == candidate[size_t(superpixels.label[i])];
   for (size_t i = 0; i < n; ++i) {
-    if (has_depth(i) || labels[i] != none) continue;
+    if (has_depth(i) || labels[i] != none || (!excluded.empty() && excluded[i])) continue;
     const size_t s = static_cast<size_t>(superpixels.label[i]);
     if (candidate[s] != none && 2 * votes[s] > with_depth[s]) labels[i] = candidate[s];
   }

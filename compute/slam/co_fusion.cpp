@@ -512,7 +512,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   stage("fuse");
   finish_frame(camera, encoding, depth_m, rgb, out);
   if (segmenting && camera != CameraState::kLost)
-    segmentation::label_depthless_pixels(out.labels, *superpixels, depth_m, uint16_t{0xFFFF});
+    segmentation::label_depthless_pixels(out.labels, *superpixels, depth_m, uint16_t{0xFFFF}, excluded);
   return out;
 }
 

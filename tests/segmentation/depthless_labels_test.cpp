@@ -45,6 +45,15 @@ TEST(DepthlessLabels, LeavePixelsWithDepthAndLabelledPixelsAlone) {
   EXPECT_EQ(labels, (std::vector<uint16_t>{2, 2, 9, kNone}));
 }
 
+TEST(DepthlessLabels, LeaveExcludedPixelsAlone) {
+  const Superpixels s = row_of({0, 0, 0, 0});
+  std::vector<uint16_t> labels = {2, 2, kNone, kNone};
+  const std::vector<float> depth = {1, 1, kNoDepth, kNoDepth};
+  const std::vector<uint8_t> excluded = {0, 0, 1, 0};  // a person's pixel without depth
+  label_depthless_pixels(labels, s, depth.data(), kNone, excluded);
+  EXPECT_EQ(labels, (std::vector<uint16_t>{2, 2, kNone, 2}));
+}
+
 TEST(DepthlessLabels, RejectMismatchedSizes) {
   const Superpixels s = row_of({0, 0, 1});
   std::vector<uint16_t> labels(2, kNone);
