@@ -1,8 +1,9 @@
 #pragma once
 // A storage buffer and its memory. Device buffers are host-mapped where device-local memory is
 // also host-cached (unified memory: lavapipe, integrated GPUs); otherwise (discrete GPUs, with or
-// without resizable BAR) uploads and downloads go through a staging buffer. Buffers are shared_ptr-owned so a command list can keep the ones it uses alive
-// until its submission has finished on the GPU.
+// without resizable BAR) uploads and downloads go through a staging buffer. Buffers are
+// shared_ptr-owned so a command list can keep the ones it uses alive until its submission has
+// finished on the GPU.
 #include <cstddef>
 #include <memory>
 #include <span>

@@ -247,8 +247,8 @@ uint32_t default_compute_queues(const vk::PhysicalDeviceProperties& properties) 
 }
 }  // namespace
 
-// The logical device with every queue of the compute family (at most 8, or max_compute_queues) and the features used
-// where present.
+// The logical device with the compute family's queues (at most 8; fewer by max_compute_queues or
+// the device's default) and the features used where present.
 void Context::create_device() {
   queue_family_ = *pick_compute_family(physical_device_);
   const auto families = physical_device_.getQueueFamilyProperties();

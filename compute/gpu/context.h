@@ -25,8 +25,8 @@ struct ContextOptions {
   // "" = best device; a number = index in the enumeration order (see list_devices());
   // anything else = first device whose name contains it (case-insensitive).
   std::string device;
-  // Never map device buffers even when their memory is host-visible, so every upload/download
-  // takes the staging path that discrete GPUs need. For tests of that path on lavapipe.
+  // Never map device buffers, even on unified memory, so every upload/download takes the staging
+  // path that discrete GPUs need. For tests of that path on lavapipe.
   bool force_staging = false;
   // At most this many compute queues (0: the device's default: one on NVIDIA, where several ran
   // slower, else every queue of the family, up to 8). With 1, per-model work shares one queue.
