@@ -264,9 +264,10 @@ void Stream::download(const BufferPtr& src, void* dst, size_t bytes, size_t src_
     std::memcpy(dst, static_cast<const char*>(src->mapped()) + src_offset, bytes);
     return;
   }
-  const BufferPtr& staging = this->staging(bytes);
-  run([&](CommandList& cmd) { cmd.copy(src, staging, bytes, src_offset, 0); });
-  std::memcpy(dst, staging->mapped(), bytes);
+  CommandList cmd = begin();
+  const void* host = record_download(cmd, src, bytes, src_offset);
+  wait(submit(std::move(cmd)));
+  std::memcpy(dst, host, bytes);
 }
 
 }  // namespace cofusion::gpu

@@ -99,7 +99,8 @@ class Stream {
   // Record, submit and wait: for synchronous work (tests, set-up, benchmarks).
   void run(const std::function<void(CommandList&)>& record);
   // Synchronous transfers. They first wait for this stream's earlier work; mapped buffers are
-  // copied directly, others through this stream's staging buffer (kept, grown as needed).
+  // copied directly, others through this stream's staging (upload) or readback (download) buffer,
+  // each kept and grown as needed.
   void upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset = 0);
   void download(const BufferPtr& src, void* dst, size_t bytes, size_t src_offset = 0);
   // A download recorded into `cmd` after its earlier work, so one submission computes and reads
@@ -133,7 +134,7 @@ class Stream {
     std::unique_ptr<CommandList::Timing> timing;
   };
   void collect_finished();
-  // The staging buffer, at least `bytes` large. Only synchronous transfers use it, after waiting
+  // The upload staging buffer, at least `bytes` large. Only synchronous uploads use it, after waiting
   // for every earlier submission, so one buffer serves them all.
   const BufferPtr& staging(size_t bytes);
 

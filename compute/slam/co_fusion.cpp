@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <limits>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <span>
 
