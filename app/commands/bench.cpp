@@ -216,6 +216,7 @@ Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, c
     times.add("  superpixels (CPU job)", r.superpixels_ms);
     times.add("  of which overlapped GPU work", r.superpixels_overlap_ms);
     times.add("  segmentation after tracking", r.segment_ms);
+    for (const auto& [part, part_ms] : r.segment_parts_ms) times.add("    " + part, part_ms);
     times.add("whole frame", ms);
     frame_ms.push_back(ms);
   }

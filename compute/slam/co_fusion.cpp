@@ -186,24 +186,49 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
 }
 
-// Tracks the model with its own live pixels.
-void CoFusion::track_model(Model& m) {
-  const Eigen::Isometry3d guess = params_.slam.constant_velocity_guess ? m.last_motion : Eigen::Isometry3d::Identity();
+// Tracks the models with their own live pixels, all in lockstep on the main stream: one
+// submission per Gauss-Newton iteration for all of them, which on a discrete GPU costs little more
+// than one model's.
+void CoFusion::track(const std::vector<Model*>& models) {
   // Background-only runs track with every live pixel: there is nothing to mask.
-  const auto& live = params_.motion_segmentation ? m.masked : live_.levels;
-  m.tracking = m.tracker.track(m.stream, live, m.prediction.levels, guess, m.track_rect);
+  const auto job = [&](Model& m, const Eigen::Isometry3d& guess) {
+    return TrackingJob{&m.tracker, params_.motion_segmentation ? &m.masked : &live_.levels, &m.prediction.levels, guess,
+                       m.track_rect, {}};
+  };
+  std::vector<TrackingJob> jobs;
+  std::vector<gpu::TimelinePoint> predicted;  // each model's prediction and masks, on its own stream
+  for (Model* m : models) {
+    jobs.push_back(job(*m, params_.slam.constant_velocity_guess ? m->last_motion : Eigen::Isometry3d::Identity()));
+    predicted.push_back(m->stream.last_submitted());
+  }
+  track_together(main_stream_, jobs, predicted);
   // A new model's velocity guess is its region's centroid step, which is off when the region grew
   // or shrank between the frames: it is also tracked from no motion, and the alignment with the
   // lower cost per residual is kept (the inlier counts mislead: a wrong pose can pair more pixels).
-  if (m.guess_from_centroid_step && !guess.isApprox(Eigen::Isometry3d::Identity())) {
-    TrackingResult still = m.tracker.track(m.stream, live, m.prediction.levels, Eigen::Isometry3d::Identity(), m.track_rect);
-    const double lambda = m.tracker.params().use_photometric ? m.tracker.params().photometric_weight : 0.0;
-    if (!still.failed && (m.tracking.failed || mean_alignment_cost(still, lambda) < mean_alignment_cost(m.tracking, lambda)))
-      m.tracking = std::move(still);
+  std::vector<TrackingJob> still;
+  std::vector<size_t> again;
+  for (size_t i = 0; i < models.size(); ++i)
+    if (models[i]->guess_from_centroid_step && !jobs[i].T_reference_live_guess.isApprox(Eigen::Isometry3d::Identity())) {
+      still.push_back(job(*models[i], Eigen::Isometry3d::Identity()));
+      again.push_back(i);
+    }
+  if (!still.empty()) track_together(main_stream_, still);
+  for (size_t k = 0; k < again.size(); ++k) {
+    const TrackerParams& tp = models[again[k]]->tracker.params();
+    const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
+    TrackingResult& moved = jobs[again[k]].result;
+    const TrackingResult& from_still = still[k].result;
+    if (!from_still.failed &&
+        (moved.failed || mean_alignment_cost(from_still, lambda) < mean_alignment_cost(moved, lambda)))
+      moved = from_still;
   }
-  m.guess_from_centroid_step = false;
-  m.tracked = true;
-  m.motion = m.tracking.failed ? guess : m.tracking.T_reference_live;
+  for (size_t i = 0; i < models.size(); ++i) {
+    Model& m = *models[i];
+    m.tracking = std::move(jobs[i].result);
+    m.guess_from_centroid_step = false;
+    m.tracked = true;
+    m.motion = m.tracking.failed ? jobs[i].T_reference_live_guess : m.tracking.T_reference_live;
+  }
 }
 
 // While the camera is lost nothing moves: every model keeps its world pose (its motion is the
@@ -618,9 +643,10 @@ void CoFusion::for_each_model(const std::vector<Model*>& models, const Work& wor
 CameraState CoFusion::track_models(const std::vector<Model*>& active, const float* depth_m, std::string& refusal,
                                    const std::function<void(const char*)>& stage) {
   Model& bg = *active.front();
-  for_each_model(active, [&](Model& m) {
-    if (!m.resting) track_model(m);
-  });
+  std::vector<Model*> moving;
+  for (Model* m : active)
+    if (!m->resting) moving.push_back(m);
+  track(moving);
   stage("track");
   std::optional<CameraFits> fits;
   if (params_.camera_check.enabled && !previous_depth_m_.empty()) fits = camera_fits(bg, depth_m);
@@ -671,7 +697,7 @@ void CoFusion::retry_camera_tracking(Model& bg, const float* depth_m, std::optio
   TrackerParams retry = primary;
   retry.photometric_weight = p.retry_photometric_weight;
   bg.tracker.set_params(retry);
-  track_model(bg);
+  track({&bg});
   bg.tracker.set_params(primary);
   if (!bg.tracking.failed) {
     if (!fits) return;
@@ -819,15 +845,26 @@ void CoFusion::update_poses(const std::vector<Model*>& active, CoFusionFrame& ou
 void CoFusion::segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
                        const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
                        std::vector<int>& spawned_slots) {
+  auto lap = Clock::now();
+  const auto part = [&](const char* name) {
+    const auto now = Clock::now();
+    out.segment_parts_ms.emplace_back(name, ms_between(lap, now));
+    lap = now;
+  };
   std::vector<std::vector<float>> costs(active.size());
-  for (size_t k = 0; k < active.size(); ++k) model_costs(*active[k], depth_m, costs[k]);
+  tbb::parallel_for(size_t{0}, active.size(), [&](size_t k) { model_costs(*active[k], depth_m, costs[k]); });
+  part("costs");
   std::vector<std::span<const float>> views(costs.begin(), costs.end());
   segmentation::SegmentationResult seg = segmenter_.segment(superpixels, rgb, depth_m, views);
   mark_excluded(excluded, segmentation::kNoLabel, seg.labels);
+  part("CRF");
   rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size()));
+  part("rising cost");
   changed_ = changed_since_previous(superpixels, depth_m, rgb, seg.labels);
+  part("previous frame");
   slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
+  part("lifecycle");
 }
 
 // Without motion segmentation (or on the first frame) everything with depth belongs to the

@@ -353,6 +353,9 @@ struct CoFusionFrame {
   double superpixels_ms = 0;
   double superpixels_overlap_ms = 0;  // of superpixels_ms, the part that ran while GPU work was in flight
   double segment_ms = 0;
+  // segment_ms by part, in order: the models' costs, the CRF (segmenter), the rising background
+  // cost, the change since the previous frame, the lifecycle.
+  std::vector<std::pair<std::string, double>> segment_parts_ms;
 };
 
 // A model for export and display.
@@ -404,7 +407,8 @@ class CoFusion {
   struct Model;
   Model& create_model(int slot, const Eigen::Isometry3d& T_world_model);
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
-  void track_model(Model& m);
+  // Tracks the models together (track_together), each with its own live pixels.
+  void track(const std::vector<Model*>& models);
   void settle_model(Model& m, const Eigen::Isometry3d& camera_motion);
   void compute_residuals(Model& m);
   // Fuses the pixels of m's slot and of `also_slots` (bit s for slot s).

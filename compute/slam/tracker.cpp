@@ -85,10 +85,10 @@ void Tracker::set_params(const TrackerParams& params) {
   params_ = params;
 }
 
-LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
-                                       const kernels::FramePyramid::Level& reference,
-                                       const Eigen::Isometry3d& T_reference_live,
-                                       const std::optional<PixelRect>& rect, const IterationScales& scales) {
+uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePyramid::Level& live,
+                                   const kernels::FramePyramid::Level& reference,
+                                   const Eigen::Isometry3d& T_reference_live, const std::optional<PixelRect>& rect,
+                                   const IterationScales& scales) {
   const Intrinsics& k = live.intrinsics;
   L::IcpRgbReduceParams p{};
   const Eigen::Matrix<double, 3, 4> T = T_reference_live.matrix().topRows<3>();
@@ -124,16 +124,27 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   // level's size stands in (it is not read).
   if (params_.outline_photometric && !live.depth_m) throw Error("Tracker: the outline term needs the live level's depth");
   const gpu::BufferPtr& live_depth = live.depth_m ? live.depth_m : live.intensity;
-  auto cmd = stream.begin();
   if (cmd.profiled()) cmd.set_profile_label(std::to_string(live.width) + "x" + std::to_string(live.height));
   cmd.dispatch(reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
                 reference.gradient, partials_, live.gradient, live_depth},
                p, groups);
-  const size_t partial_floats = static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE;
-  const auto* partials = static_cast<const float*>(stream.record_download(cmd, partials_, partial_floats * sizeof(float)));
-  stream.wait(stream.submit(std::move(cmd)));
+  return groups;
+}
 
+const float* Tracker::record_readback(gpu::CommandList& cmd, uint32_t groups) {
+  const size_t bytes = static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
+  if (bytes > partials_->size()) throw Error("Tracker::record_readback: more workgroups than partial sums");
+  if (partials_->mapped()) return static_cast<const float*>(partials_->mapped());
+  if (!partials_readback_ || partials_readback_->size() < partials_->size())
+    partials_readback_ =
+        gpu::Buffer::create(ctx_, partials_->size(), "tracker partial sums readback", gpu::BufferUsage::Staging);
+  cmd.barrier();
+  cmd.copy(partials_, partials_readback_, bytes);
+  return static_cast<const float*>(partials_readback_->mapped());
+}
+
+LinearSystemSums Tracker::add_partials(const float* partials, uint32_t groups) {
   LinearSystemSums sums;
   for (uint32_t g = 0; g < groups; ++g) {
     const float* part = partials + static_cast<size_t>(g) * ICP_RGB_PARTIAL_STRIDE;
@@ -149,26 +160,93 @@ LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::Frame
   return sums;
 }
 
+LinearSystemSums Tracker::compute_sums(gpu::Stream& stream, const kernels::FramePyramid::Level& live,
+                                       const kernels::FramePyramid::Level& reference,
+                                       const Eigen::Isometry3d& T_reference_live,
+                                       const std::optional<PixelRect>& rect, const IterationScales& scales) {
+  auto cmd = stream.begin();
+  const uint32_t groups = record_reduction(cmd, live, reference, T_reference_live, rect, scales);
+  const float* partials = record_readback(cmd, groups);
+  stream.wait(stream.submit(std::move(cmd)));
+  return add_partials(partials, groups);
+}
+
+void Tracker::check_inputs(const std::vector<kernels::FramePyramid::Level>& live,
+                           const std::vector<kernels::FramePyramid::Level>& reference,
+                           const Eigen::Isometry3d& T_reference_live_guess, const std::string& what) const {
+  check_levels(live, reference, what);
+  if (live.size() > params_.iterations_per_level.size())
+    throw Error(what + ": " + std::to_string(live.size()) + " pyramid levels but iterations_per_level has " +
+                std::to_string(params_.iterations_per_level.size()) + " entries");
+  if (!T_reference_live_guess.matrix().allFinite()) throw Error(what + ": the pose guess is not finite");
+}
+
+namespace {
+std::vector<long> level_pixels(const std::vector<kernels::FramePyramid::Level>& levels) {
+  std::vector<long> pixels;
+  for (const auto& level : levels) pixels.push_back(static_cast<long>(level.width) * level.height);
+  return pixels;
+}
+
+std::optional<PixelRect> rect_at(const std::optional<PixelRect>& rect_level0, const kernels::FramePyramid::Level& l,
+                                 int level) {
+  return rect_level0 ? std::optional(rect_level0->at_level(level, l.width, l.height)) : std::nullopt;
+}
+}  // namespace
+
 TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::FramePyramid::Level>& live,
                               const std::vector<kernels::FramePyramid::Level>& reference,
                               const Eigen::Isometry3d& T_reference_live_guess,
                               const std::optional<PixelRect>& rect_level0) {
-  check_levels(live, reference, "Tracker::track");
-  if (live.size() > params_.iterations_per_level.size())
-    throw Error("Tracker::track: " + std::to_string(live.size()) + " pyramid levels but iterations_per_level has " +
-                std::to_string(params_.iterations_per_level.size()) + " entries");
-  if (!T_reference_live_guess.matrix().allFinite()) throw Error("Tracker::track: the pose guess is not finite");
-  std::vector<long> pixels;
-  for (const auto& level : live) pixels.push_back(static_cast<long>(level.width) * level.height);
+  check_inputs(live, reference, T_reference_live_guess, "Tracker::track");
   return gauss_newton(
-      pixels,
+      level_pixels(live),
       [&](int level, const Eigen::Isometry3d& T, const IterationScales& scales) {
         const auto& l = live[size_t(level)];
-        return compute_sums(stream, l, reference[size_t(level)], T,
-                            rect_level0 ? std::optional(rect_level0->at_level(level, l.width, l.height)) : std::nullopt,
-                            scales);
+        return compute_sums(stream, l, reference[size_t(level)], T, rect_at(rect_level0, l, level), scales);
       },
       T_reference_live_guess, params_);
+}
+
+void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<const gpu::TimelinePoint> waits) {
+  std::vector<std::vector<long>> pixels;
+  std::vector<GaussNewton> loops;
+  pixels.reserve(jobs.size());  // the loops keep references to these
+  loops.reserve(jobs.size());
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    TrackingJob& job = jobs[j];
+    if (!job.tracker || !job.live || !job.reference) throw Error("track_together: job " + std::to_string(j) + " is incomplete");
+    for (size_t i = 0; i < j; ++i)
+      if (jobs[i].tracker == job.tracker) throw Error("track_together: jobs " + std::to_string(i) + " and " + std::to_string(j) + " share a tracker");
+    job.tracker->check_inputs(*job.live, *job.reference, job.T_reference_live_guess, "track_together");
+    pixels.push_back(level_pixels(*job.live));
+    loops.emplace_back(pixels.back(), job.T_reference_live_guess, job.tracker->params());
+  }
+  struct Pending {
+    size_t job;
+    uint32_t groups;
+    const float* partials;
+  };
+  const auto unfinished = [&] { return std::any_of(loops.begin(), loops.end(), [](const auto& l) { return !l.done(); }); };
+  std::vector<Pending> pending;
+  for (bool first = true; unfinished(); first = false) {
+    auto cmd = stream.begin();
+    pending.clear();
+    for (size_t j = 0; j < jobs.size(); ++j) {
+      const auto& request = loops[j].request();
+      if (!request) continue;
+      const TrackingJob& job = jobs[j];
+      const auto& live = (*job.live)[size_t(request->level)];
+      const uint32_t groups =
+          job.tracker->record_reduction(cmd, live, (*job.reference)[size_t(request->level)], request->T_reference_live,
+                                        rect_at(job.rect_level0, live, request->level), request->scales);
+      pending.push_back({j, groups, nullptr});
+    }
+    for (Pending& p : pending) p.partials = jobs[p.job].tracker->record_readback(cmd, p.groups);
+    stream.wait(stream.submit(std::move(cmd), first ? waits : std::span<const gpu::TimelinePoint>{}));
+    for (const Pending& p : pending) loops[p.job].take(Tracker::add_partials(p.partials, p.groups));
+  }
+  for (size_t j = 0; j < jobs.size(); ++j) jobs[j].result = loops[j].result();
 }
 
 }  // namespace cofusion::slam

@@ -6,6 +6,7 @@
 // pyramid, coarse to fine. One GPU dispatch per iteration reduces both linear systems
 // (shaders/icp_rgb_reduce.comp); the 6x6 solve runs on the host in double.
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -52,12 +53,45 @@ class Tracker {
   const TrackerParams& params() const { return params_; }
   void set_params(const TrackerParams& params);
 
+  // compute_sums in three steps, for several trackers in one submission (track_together):
+  // record_reduction records the reduction, record_readback (after it, in the same list) where
+  // the host will find its partial sums, and add_partials sums them once the list has completed.
+  uint32_t record_reduction(gpu::CommandList& cmd, const kernels::FramePyramid::Level& live,
+                            const kernels::FramePyramid::Level& reference, const Eigen::Isometry3d& T_reference_live,
+                            const std::optional<PixelRect>& rect, const IterationScales& scales);
+  const float* record_readback(gpu::CommandList& cmd, uint32_t groups);
+  static LinearSystemSums add_partials(const float* partials, uint32_t groups);
+  // Throws cofusion::Error unless track() could run with these inputs.
+  void check_inputs(const std::vector<kernels::FramePyramid::Level>& live,
+                    const std::vector<kernels::FramePyramid::Level>& reference,
+                    const Eigen::Isometry3d& T_reference_live_guess, const std::string& what) const;
+
  private:
   gpu::Context& ctx_;
   TrackerParams params_;
   gpu::ComputePipeline reduce_;
   gpu::BufferPtr partials_;
+  // Where the host reads the partial sums when partials_ is not mapped (a discrete GPU).
+  gpu::BufferPtr partials_readback_;
 };
+
+// One tracking of track_together: Tracker::track's inputs and its result.
+struct TrackingJob {
+  Tracker* tracker = nullptr;  // a different one for every job of a call
+  const std::vector<kernels::FramePyramid::Level>* live = nullptr;
+  const std::vector<kernels::FramePyramid::Level>* reference = nullptr;
+  Eigen::Isometry3d T_reference_live_guess = Eigen::Isometry3d::Identity();
+  std::optional<PixelRect> rect_level0;
+  TrackingResult result;  // set by track_together
+};
+
+// Tracker::track for every job at once, with the same results: the jobs' Gauss-Newton loops
+// advance in lockstep, each round one submission on `stream` that reduces every unfinished job's
+// next iteration, and one wait. A tracking costs about 20 round trips; on a discrete GPU a round
+// trip, not the reduction, is most of an iteration's time, so N models cost about what one does.
+// The first submission waits for `waits` (the work that wrote the jobs' maps on other streams).
+// Throws cofusion::Error on a job's bad inputs (as Tracker::track) or a tracker used twice.
+void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<const gpu::TimelinePoint> waits = {});
 
 // Throws cofusion::Error unless `live` and `reference` have the same, non-zero number of levels
 // with equal sizes and the buffers every level needs. `what` names the caller in messages.

@@ -124,78 +124,103 @@ std::string refusal(const TrackingResult& result, const Eigen::Isometry3d& delta
 
 TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtLevel& sums,
                             const Eigen::Isometry3d& guess, const TrackerParams& params) {
-  TrackingResult result;
-  result.T_reference_live = guess;
-  auto fail = [&](const std::string& reason) {
-    result.failed = true;
-    result.failure_reason = reason;
-    result.T_reference_live = guess;
-    return result;
-  };
-  const int levels = static_cast<int>(level_pixels.size());
-  Eigen::Isometry3d T = guess;
-  bool evaluated = false;
-  IterationScales scales;  // the first iteration is plain least squares
-  for (int level = levels - 1; level >= 0; --level) {
-    const std::string where = "level " + std::to_string(level);
-    // Fewer pixels, fewer correspondences needed (but never fewer than two per unknown).
-    const double pixel_share = static_cast<double>(level_pixels[level]) / static_cast<double>(level_pixels[0]);
-    const double min_corr = std::max(12.0, params.min_correspondences * pixel_share);
-    const Eigen::Isometry3d T_level_start = T;
-    for (int it = 0; it < params.iterations_per_level[level]; ++it) {
-      LinearSystemSums s = sums(level, T, scales);
-      if (!evaluated) {
-        // The first sums measure the live frame's exposure; they are formed again with it when it
-        // differs from the assumed one by more than 0.2% (half an intensity level at mid-grey).
-        const double gain = exposure_gain(s, params, scales.live_gain);
-        if (std::abs(gain - scales.live_gain) > 0.002) {
-          scales.live_gain = gain;
-          s = sums(level, T, scales);
-        }
-      }
-      evaluated = true;
-      take_statistics(s, params, result, scales);
-      if (level > 0 && s.icp[28] < params.min_coarse_level_correspondences) break;  // on to the next finer level
-      if (s.icp[28] < min_corr)
-        return fail("too few ICP correspondences at " + where + ": " + std::to_string(result.icp_inliers) +
-                    " < " + fmt(min_corr));
+  GaussNewton loop(level_pixels, guess, params);
+  while (loop.request()) {
+    const GaussNewton::Request r = *loop.request();
+    loop.take(sums(r.level, r.T_reference_live, r.scales));
+  }
+  return loop.result();
+}
 
-      Matrix6d H;
-      Vector6d b;
-      combined_system(s, params, H, b);
-      if (!H.allFinite() || !b.allFinite()) return fail("non-finite linear system at " + where);
-      result.eigenvalue_ratio = balanced_eigenvalue_ratio(H);
-      // A coarse level of a small object can be degenerate where the finer ones are not (a box
-      // face of a few dozen pixels at 80x60): it is skipped, not the whole tracking failed.
-      if (level > 0 && result.eigenvalue_ratio < params.min_eigenvalue_ratio) break;
-      if (result.eigenvalue_ratio < params.min_eigenvalue_ratio)
-        return fail("degenerate system at " + where + ": balanced eigenvalue ratio " +
-                    fmt(result.eigenvalue_ratio) + " < " + fmt(params.min_eigenvalue_ratio) +
-                    " (motion along some direction is unobservable)");
+GaussNewton::GaussNewton(const std::vector<long>& level_pixels, const Eigen::Isometry3d& guess,
+                         const TrackerParams& params)
+    : level_pixels_(level_pixels), params_(params), guess_(guess), T_(guess), T_level_start_(guess) {
+  result_.T_reference_live = guess;
+  start_level(static_cast<int>(level_pixels.size()) - 1);
+}
 
-      const Vector6d xi = H.ldlt().solve(-b);
-      if (!xi.allFinite()) return fail("non-finite update at " + where);
-      const double step_t = xi.head<3>().norm(), step_r = xi.tail<3>().norm();
-      const bool diverged = step_t > params.max_step_translation_m || step_r > params.max_step_rotation_deg * kRadPerDeg;
-      // A coarse level can ask for a wild step where the finer ones do not (people covering most
-      // of a 80x60 image): the level's steps are undone and the next finer level goes on from the
-      // pose it started with; only the finest level's divergence fails the tracking.
-      if (level > 0 && diverged) {
-        T = T_level_start;
-        ++result.skipped_diverging_levels;
-        break;
-      }
-      if (diverged)
-        return fail("diverged at " + where + ": step of " + fmt(step_t) + " m, " + fmt(step_r / kRadPerDeg) + " deg");
-      T = orthonormalised(se3_exp(xi) * T);
-      if (step_t < params.converged_translation_m && step_r < params.converged_rotation_rad) break;
+// Goes on at the finest level from `level` down that runs any iteration; finishes past level 0.
+void GaussNewton::start_level(int level) {
+  while (level >= 0 && params_.iterations_per_level[size_t(level)] <= 0) --level;
+  if (level < 0) return finish();
+  level_ = level;
+  iteration_ = 0;
+  T_level_start_ = T_;
+  // Fewer pixels, fewer correspondences needed (but never fewer than two per unknown).
+  const double pixel_share = static_cast<double>(level_pixels_[size_t(level)]) / static_cast<double>(level_pixels_[0]);
+  min_correspondences_ = std::max(12.0, params_.min_correspondences * pixel_share);
+  request_ = Request{level_, T_, scales_};
+}
+
+void GaussNewton::take(const LinearSystemSums& s) {
+  if (!request_) throw Error("GaussNewton::take: the loop has finished");
+  if (!evaluated_) {
+    // The first sums measure the live frame's exposure; they are formed again with it when it
+    // differs from the assumed one by more than 0.2% (half an intensity level at mid-grey).
+    evaluated_ = true;
+    const double gain = exposure_gain(s, params_, scales_.live_gain);
+    if (std::abs(gain - scales_.live_gain) > 0.002) {
+      scales_.live_gain = gain;
+      request_ = Request{level_, T_, scales_};
+      return;
     }
   }
-  if (!evaluated) return fail("no Gauss-Newton iterations configured");
+  iterate(s);
+}
 
-  if (const std::string refused = refusal(result, guess.inverse() * T, params); !refused.empty()) return fail(refused);
-  result.T_reference_live = T;
-  return result;
+void GaussNewton::iterate(const LinearSystemSums& s) {
+  const std::string where = "level " + std::to_string(level_);
+  take_statistics(s, params_, result_, scales_);
+  if (level_ > 0 && s.icp[28] < params_.min_coarse_level_correspondences) return start_level(level_ - 1);
+  if (s.icp[28] < min_correspondences_)
+    return fail("too few ICP correspondences at " + where + ": " + std::to_string(result_.icp_inliers) + " < " +
+                fmt(min_correspondences_));
+
+  Matrix6d H;
+  Vector6d b;
+  combined_system(s, params_, H, b);
+  if (!H.allFinite() || !b.allFinite()) return fail("non-finite linear system at " + where);
+  result_.eigenvalue_ratio = balanced_eigenvalue_ratio(H);
+  // A coarse level of a small object can be degenerate where the finer ones are not (a box face of
+  // a few dozen pixels at 80x60): it is skipped, not the whole tracking failed.
+  if (level_ > 0 && result_.eigenvalue_ratio < params_.min_eigenvalue_ratio) return start_level(level_ - 1);
+  if (result_.eigenvalue_ratio < params_.min_eigenvalue_ratio)
+    return fail("degenerate system at " + where + ": balanced eigenvalue ratio " + fmt(result_.eigenvalue_ratio) +
+                " < " + fmt(params_.min_eigenvalue_ratio) + " (motion along some direction is unobservable)");
+
+  const Vector6d xi = H.ldlt().solve(-b);
+  if (!xi.allFinite()) return fail("non-finite update at " + where);
+  const double step_t = xi.head<3>().norm(), step_r = xi.tail<3>().norm();
+  const bool diverged = step_t > params_.max_step_translation_m || step_r > params_.max_step_rotation_deg * kRadPerDeg;
+  // A coarse level can ask for a wild step where the finer ones do not (people covering most of a
+  // 80x60 image): the level's steps are undone and the next finer level goes on from the pose it
+  // started with; only the finest level's divergence fails the tracking.
+  if (level_ > 0 && diverged) {
+    T_ = T_level_start_;
+    ++result_.skipped_diverging_levels;
+    return start_level(level_ - 1);
+  }
+  if (diverged)
+    return fail("diverged at " + where + ": step of " + fmt(step_t) + " m, " + fmt(step_r / kRadPerDeg) + " deg");
+  T_ = orthonormalised(se3_exp(xi) * T_);
+  const bool converged = step_t < params_.converged_translation_m && step_r < params_.converged_rotation_rad;
+  if (converged || ++iteration_ >= params_.iterations_per_level[size_t(level_)]) return start_level(level_ - 1);
+  request_ = Request{level_, T_, scales_};
+}
+
+void GaussNewton::fail(const std::string& reason) {
+  request_.reset();
+  result_.failed = true;
+  result_.failure_reason = reason;
+  result_.T_reference_live = guess_;
+}
+
+void GaussNewton::finish() {
+  request_.reset();
+  if (!evaluated_) return fail("no Gauss-Newton iterations configured");
+  if (const std::string refused = refusal(result_, guess_.inverse() * T_, params_); !refused.empty())
+    return fail(refused);
+  result_.T_reference_live = T_;
 }
 
 }  // namespace cofusion::slam

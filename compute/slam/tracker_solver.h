@@ -4,6 +4,7 @@
 // (tracker_reference.h) so both run exactly the same solver, checks and failure rules.
 #include <array>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -202,6 +203,48 @@ using SumsAtLevel =
 // `params`; on failure returns the guess.
 TrackingResult gauss_newton(const std::vector<long>& level_pixels, const SumsAtLevel& sums,
                             const Eigen::Isometry3d& T_reference_live_guess, const TrackerParams& params);
+
+// The same Gauss-Newton loop, turned inside out so that the caller computes the sums: while
+// request() names a level, pose and scales, the caller forms those sums and hands them to take().
+// Several models' trackings then advance in lockstep, one GPU submission per iteration for all of
+// them (track_together). gauss_newton() is this loop with a callback.
+class GaussNewton {
+ public:
+  struct Request {
+    int level = 0;
+    Eigen::Isometry3d T_reference_live = Eigen::Isometry3d::Identity();
+    IterationScales scales;
+  };
+  // `level_pixels` and `params` must outlive this object.
+  GaussNewton(const std::vector<long>& level_pixels, const Eigen::Isometry3d& T_reference_live_guess,
+              const TrackerParams& params);
+  // The sums the loop needs next; none once it has finished.
+  const std::optional<Request>& request() const { return request_; }
+  // The sums of request(); advances the loop. Only while request() has a value.
+  void take(const LinearSystemSums& sums);
+  bool done() const { return !request_; }
+  // The outcome; only once done().
+  const TrackingResult& result() const { return result_; }
+
+ private:
+  void start_level(int level);
+  void iterate(const LinearSystemSums& s);
+  void fail(const std::string& reason);
+  void finish();
+
+  const std::vector<long>& level_pixels_;
+  const TrackerParams& params_;
+  Eigen::Isometry3d guess_;
+  Eigen::Isometry3d T_;
+  Eigen::Isometry3d T_level_start_;
+  int level_ = 0;
+  int iteration_ = 0;  // within the level
+  double min_correspondences_ = 0;  // at this level
+  bool evaluated_ = false;  // the first sums were taken (and the exposure re-measured)
+  IterationScales scales_;  // the first iteration is plain least squares
+  std::optional<Request> request_;
+  TrackingResult result_;
+};
 
 // Throws cofusion::Error naming `what` when a parameter is out of range.
 void validate(const TrackerParams& params, const std::string& what);

@@ -779,6 +779,59 @@ TEST_F(Tracking, MismatchedInputsThrow) {
   EXPECT_THROW(tracker_->set_params(bad), Error);
 }
 
+// track_together runs every job's Gauss-Newton loop in lockstep: each job's result must be the
+// one Tracker::track gives it alone, bit for bit (same sums, same order), whether it converges,
+// stops early, is confined to a rectangle or fails.
+TEST_F(Tracking, TrackedTogetherEqualsTrackedOneByOne) {
+  const Intrinsics k = intrinsics_for(320, 240);
+  const auto reference = make_frame(render(room_scene(), k, Isometry3d::Identity()), k);
+  const auto live = make_frame(render(room_scene(), k, moved_pose()), k);
+  const std::vector<float> no_depth(static_cast<size_t>(k.width) * k.height, 0.0f);
+  const auto empty = make_frame(no_depth, std::vector<uint8_t>(no_depth.size() * 3, 128), k, 4);
+  slam::TrackerParams icp_only;
+  icp_only.use_photometric = false;
+  slam::TrackerParams few;
+  few.iterations_per_level = {1, 0, 2, 3};  // a level without iterations, early stops elsewhere
+  Isometry3d near_guess = moved_pose();
+  near_guess.translation() += Vector3d(0.004, 0.0, -0.003);
+  struct Case {
+    slam::TrackerParams params;
+    const FramePyramid* reference;
+    Isometry3d guess;
+    std::optional<PixelRect> rect;
+  };
+  const std::vector<Case> cases = {{slam::TrackerParams{}, &reference, Isometry3d::Identity(), std::nullopt},
+                                   {icp_only, &reference, near_guess, std::nullopt},
+                                   {few, &reference, Isometry3d::Identity(), PixelRect{40, 30, 260, 200}},
+                                   {slam::TrackerParams{}, &empty, near_guess, std::nullopt}};  // fails
+  std::vector<std::unique_ptr<slam::Tracker>> trackers;
+  std::vector<slam::TrackingJob> jobs;
+  std::vector<slam::TrackingResult> alone;
+  for (const Case& c : cases) {
+    trackers.push_back(std::make_unique<slam::Tracker>(ctx(), c.params));
+    alone.push_back(trackers.back()->track(stream(), live.levels, c.reference->levels, c.guess, c.rect));
+    jobs.push_back({trackers.back().get(), &live.levels, &c.reference->levels, c.guess, c.rect, {}});
+  }
+  slam::track_together(stream(), jobs);
+  for (size_t i = 0; i < cases.size(); ++i) {
+    SCOPED_TRACE("job " + std::to_string(i));
+    const slam::TrackingResult& t = jobs[i].result;
+    EXPECT_EQ(t.failed, alone[i].failed) << describe(t);
+    EXPECT_EQ(t.failure_reason, alone[i].failure_reason);
+    EXPECT_TRUE(t.T_reference_live.matrix() == alone[i].T_reference_live.matrix());
+    EXPECT_EQ(t.iterations, alone[i].iterations);
+    EXPECT_EQ(t.icp_inliers, alone[i].icp_inliers);
+    EXPECT_EQ(t.rgb_rms, alone[i].rgb_rms);
+  }
+  EXPECT_FALSE(jobs[0].result.failed) << describe(jobs[0].result);
+  EXPECT_TRUE(jobs[3].result.failed);
+  EXPECT_NE(jobs[0].result.iterations, jobs[2].result.iterations);  // the loops did not run alike
+
+  // One tracker in two jobs would overwrite its own partial sums.
+  std::vector<slam::TrackingJob> shared = {jobs[0], jobs[0]};
+  EXPECT_THROW(slam::track_together(stream(), shared), Error);
+}
+
 // ---- TUM fr2/desk ------------------------------------------------------------------------------
 struct TumFrame {
   double depth_timestamp_s;
