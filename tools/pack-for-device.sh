@@ -1,6 +1,6 @@
 #!/bin/bash
 # Packs the built binaries for a machine without this project's dependencies (a lent GPU machine:
-# another Linux, glibc at least Debian 12's): cofusion, the GPU test binaries, every shared library
+# another Linux, glibc at least Debian 12's): cofusion, the GPU test binaries (and the SLAM tests'), every shared library
 # they load except glibc's and the C++ runtime, and the Vulkan validation layer, as one .tar.xz
 # (about 57 MB). tools/device-check.sh runs them there.
 # Usage: tools/pack-for-device.sh BUILD_DIR OUT_DIR   (writes OUT_DIR/pack.tar.xz)
@@ -8,7 +8,7 @@ set -euo pipefail
 build=${1:?build folder}; out=${2:?output folder}
 work=$(mktemp -d); trap 'rm -rf "$work"' EXIT
 mkdir -p "$work/bin" "$work/lib" "$work/layers" "$out"
-bins=("$build/app/cofusion" "$build"/tests/cofusion_{kernels,gpu,renderer}_tests)
+bins=("$build/app/cofusion" "$build"/tests/cofusion_{kernels,gpu,renderer,slam}_tests)
 cp "${bins[@]}" "$work/bin/"
 for b in "${bins[@]}"; do ldd "$b"; done | awk '$3 ~ /^\// {print $3}' | sort -u |
   grep -vE '/(libc|libm|libdl|libpthread|librt|ld-linux-x86-64|libstdc\+\+|libgcc_s)\.so' |

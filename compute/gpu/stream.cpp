@@ -60,10 +60,15 @@ void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_lis
   cmd_.dispatch(groups_x, groups_y, groups_z);
   cmd_.writeTimestamp2(vk::PipelineStageFlagBits2::eAllCommands, pool, query + 1);
   timing_->names.push_back(timing_->label.empty() ? pipeline.name() : pipeline.name() + " " + timing_->label);
+  timing_->groups.push_back(timing_->group);
 }
 
 void CommandList::set_profile_label(const std::string& label) {
   if (timing_) timing_->label = label;
+}
+
+void CommandList::set_profile_group(const std::string& group) {
+  if (timing_) timing_->group = group;
 }
 
 void CommandList::barrier() {
@@ -203,8 +208,11 @@ void Stream::collect_finished() {
           const auto [result, ticks] = timing->pools[p].getResults<uint64_t>(
               0, count, count * sizeof(uint64_t), sizeof(uint64_t), vk::QueryResultFlagBits::e64 | vk::QueryResultFlagBits::eWait);
           if (result != vk::Result::eSuccess) continue;
-          for (uint32_t q = 0; q < count; q += 2)
-            profile->add(profile_group_ + ": " + timing->names[first + q / 2], double((ticks[q + 1] - ticks[q]) & mask) * ms_per_tick);
+          for (uint32_t q = 0; q < count; q += 2) {
+            const std::string& group = timing->groups[first + q / 2];
+            profile->add((group.empty() ? profile_group_ : group) + ": " + timing->names[first + q / 2],
+                         double((ticks[q + 1] - ticks[q]) & mask) * ms_per_tick);
+          }
         }
       }
     }
@@ -227,16 +235,38 @@ const BufferPtr& Stream::staging(size_t bytes) {
   return staging_;
 }
 
-const void* Stream::record_download(CommandList& cmd, const BufferPtr& src, size_t bytes, size_t src_offset) {
+const void* record_download(Context& ctx, CommandList& cmd, const BufferPtr& src, size_t bytes, size_t src_offset,
+                            BufferPtr& readback) {
   if (src_offset + bytes > src->size())
     throw Error("download of " + std::to_string(bytes) + " bytes from '" + src->name() + "' (" + std::to_string(src->size()) +
                 " bytes) is out of range");
   if (src->mapped()) return static_cast<const char*>(src->mapped()) + src_offset;
-  if (!readback_ || readback_->size() < bytes)
-    readback_ = Buffer::create(ctx_, std::max<size_t>(bytes, 4), name_ + " readback", BufferUsage::Staging);
+  if (!readback || readback->size() < bytes)
+    readback = Buffer::create(ctx, std::max<size_t>(bytes, 4), src->name() + " readback", BufferUsage::Staging);
   cmd.barrier();
-  cmd.copy(src, readback_, bytes, src_offset, 0);
-  return readback_->mapped();
+  cmd.copy(src, readback, bytes, src_offset, 0);
+  return readback->mapped();
+}
+
+void record_upload(Context& ctx, CommandList& cmd, const BufferPtr& dst, const void* src, size_t bytes,
+                   size_t dst_offset, BufferPtr& staging) {
+  if (bytes == 0) return;
+  if (dst_offset + bytes > dst->size())
+    throw Error("upload of " + std::to_string(bytes) + " bytes into '" + dst->name() + "' (" + std::to_string(dst->size()) +
+                " bytes) is out of range");
+  if (dst->mapped()) {
+    std::memcpy(static_cast<char*>(dst->mapped()) + dst_offset, src, bytes);
+    return;
+  }
+  if (!staging || staging->size() < bytes)
+    staging = Buffer::create(ctx, bytes, dst->name() + " staging", BufferUsage::Staging);
+  std::memcpy(staging->mapped(), src, bytes);
+  cmd.copy(staging, dst, bytes, 0, dst_offset);
+  cmd.barrier();
+}
+
+const void* Stream::record_download(CommandList& cmd, const BufferPtr& src, size_t bytes, size_t src_offset) {
+  return gpu::record_download(ctx_, cmd, src, bytes, src_offset, readback_);
 }
 
 void Stream::upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset) {

@@ -57,6 +57,10 @@ class CommandList {
   // Names the dispatches recorded from now on in the kernel profile ("icp_rgb_reduce 640x480");
   // no effect unless the Context has a profile attached.
   void set_profile_label(const std::string& label);
+  // Files the dispatches recorded from now on under `group` in the kernel profile instead of the
+  // stream's group (Stream::set_profile_group); empty = the stream's. One list may serve several
+  // models (track_together).
+  void set_profile_group(const std::string& group);
   // Whether this list's dispatches are timed (callers skip building labels otherwise).
   bool profiled() const { return timing_ != nullptr; }
   vk::CommandBuffer handle() const { return *cmd_; }
@@ -69,8 +73,10 @@ class CommandList {
     static constexpr uint32_t kQueriesPerPool = 2 * kProfiledDispatchesPerPool;
     const Context* ctx = nullptr;
     std::vector<vk::raii::QueryPool> pools;
-    std::vector<std::string> names;  // one per timed dispatch
+    std::vector<std::string> names;   // one per timed dispatch
+    std::vector<std::string> groups;  // one per timed dispatch; empty = the stream's
     std::string label;
+    std::string group;
   };
   CommandList(vk::raii::CommandBuffer cmd, std::unique_ptr<Timing> timing)
       : cmd_(std::move(cmd)), timing_(std::move(timing)) {}
@@ -78,6 +84,20 @@ class CommandList {
   std::vector<std::shared_ptr<const void>> held_;
   std::unique_ptr<Timing> timing_;
 };
+
+// A download recorded into `cmd` after its earlier work: returns where the host finds the `bytes`
+// of `src` (from `src_offset`) once the list's submission has completed. That is `src`'s own
+// mapping where it has one, else `readback` (a host-visible buffer, created or grown here; named
+// after `src`), which the caller keeps until then and which the next such copy overwrites.
+const void* record_download(Context& ctx, CommandList& cmd, const BufferPtr& src, size_t bytes, size_t src_offset,
+                            BufferPtr& readback);
+
+// An upload recorded into `cmd`: the `bytes` at `src` are copied now, into `dst`'s own mapping
+// where it has one (the caller makes sure the GPU is not using `dst` meanwhile), else into
+// `staging` (created or grown here), with the copy to `dst` (at `dst_offset`) and a barrier
+// recorded into `cmd`; the caller leaves `staging` alone until the list has executed.
+void record_upload(Context& ctx, CommandList& cmd, const BufferPtr& dst, const void* src, size_t bytes,
+                   size_t dst_offset, BufferPtr& staging);
 
 class Stream {
  public:
@@ -122,6 +142,7 @@ class Stream {
 
   Context& context() const { return ctx_; }
   const std::string& name() const { return name_; }
+  const std::string& profile_group() const { return profile_group_; }
   // The group this stream's dispatches are filed under in the kernel profile (default: its name),
   // e.g. "background" or "objects".
   void set_profile_group(const std::string& group) { profile_group_ = group; }

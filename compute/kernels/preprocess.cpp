@@ -42,16 +42,30 @@ FramePyramid FramePyramid::allocate(gpu::Context& ctx, const Intrinsics& intrins
   return f;
 }
 
-void FramePyramid::upload(gpu::Stream& stream, const float* depth_m, const uint8_t* rgb8) const {
-  const size_t n = pixels(levels.at(0).width, levels.at(0).height);
+namespace {
+// Depth in upload units; NaN, negative and out-of-range readings become "no reading".
+std::vector<uint16_t> depth_units(const float* depth_m, size_t n) {
   std::vector<uint16_t> units(n);
   for (size_t i = 0; i < n; ++i) {
-    const float u = depth_m[i] / kUploadMetresPerUnit;
-    // NaN, negative and out-of-range readings become "no reading".
+    const float u = depth_m[i] / FramePyramid::kUploadMetresPerUnit;
     units[i] = (u >= 0.5f && u < 65535.0f) ? static_cast<uint16_t>(std::lround(u)) : 0;
   }
+  return units;
+}
+}  // namespace
+
+void FramePyramid::upload(gpu::Stream& stream, const float* depth_m, const uint8_t* rgb8) const {
+  const size_t n = pixels(levels.at(0).width, levels.at(0).height);
+  const std::vector<uint16_t> units = depth_units(depth_m, n);
   stream.upload(raw_depth, units.data(), n * sizeof(uint16_t));
   stream.upload(rgb, rgb8, n * 3);
+}
+
+void FramePyramid::record_upload(gpu::Context& ctx, gpu::CommandList& cmd, const float* depth_m, const uint8_t* rgb8) {
+  const size_t n = pixels(levels.at(0).width, levels.at(0).height);
+  const std::vector<uint16_t> units = depth_units(depth_m, n);
+  gpu::record_upload(ctx, cmd, raw_depth, units.data(), n * sizeof(uint16_t), 0, raw_depth_staging);
+  gpu::record_upload(ctx, cmd, rgb, rgb8, n * 3, 0, rgb_staging);
 }
 
 Preprocessor::Preprocessor(gpu::Context& ctx)

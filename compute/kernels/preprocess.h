@@ -39,6 +39,10 @@ struct FramePyramid {
   // Uploads level-0 inputs: `depth_m` (width*height floats, metres; 0, NaN, negative = no
   // reading) and `rgb8` (width*height*3 bytes). Synchronous on `stream`.
   void upload(gpu::Stream& stream, const float* depth_m, const uint8_t* rgb8) const;
+  // The same, recorded into `cmd` (gpu::record_upload): no submission of its own. The GPU must
+  // not be using this frame's input buffers meanwhile.
+  void record_upload(gpu::Context& ctx, gpu::CommandList& cmd, const float* depth_m, const uint8_t* rgb8);
+  gpu::BufferPtr raw_depth_staging, rgb_staging;  // record_upload's, where the inputs are not mapped
 };
 
 class Preprocessor {

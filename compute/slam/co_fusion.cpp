@@ -193,7 +193,7 @@ void CoFusion::track(const std::vector<Model*>& models) {
   // Background-only runs track with every live pixel: there is nothing to mask.
   const auto job = [&](Model& m, const Eigen::Isometry3d& guess) {
     return TrackingJob{&m.tracker, params_.motion_segmentation ? &m.masked : &live_.levels, &m.prediction.levels, guess,
-                       m.track_rect, {}};
+                       m.track_rect, m.stream.profile_group(), {}};
   };
   std::vector<TrackingJob> jobs;
   std::vector<gpu::TimelinePoint> predicted;  // each model's prediction and masks, on its own stream
@@ -322,52 +322,86 @@ bool CoFusion::relocalise(Model& bg, const FrameEncoding& encoding, const FrameF
   if (params_.motion_segmentation) {
     predict_at(T_world_live);
     bg.T_prediction_live = Eigen::Isometry3d::Identity();
-    compute_residuals(bg);
+    compute_residuals({&bg});
   }
   return true;
 }
 
 // Once every model is tracked: an object whose pixels staying where it is in the world
-// (`camera_motion`, the background's) explains as well as its tracked motion stays (RestParams).
-// Then the per-pixel alignment cost of the model's motion over its residual rectangle (the
-// segmentation's input).
-void CoFusion::settle_model(Model& m, const Eigen::Isometry3d& camera_motion) {
-  const RestParams& rest = params_.rest;
-  if (m.id != 0 && !m.resting && rest.prefer_rest && !m.tracking.failed && params_.motion_segmentation) {
-    const TrackerParams& tp = m.tracker.params();
-    const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
-    // The tracked motion's fit is tracking's last iteration's (at the pose before its final,
-    // converged step), so only rest needs a reduction of its own.
-    const TrackingResult& t = m.tracking;
-    const double moved_n = t.icp_inliers;
-    const double moved_cost = mean_alignment_cost(t, lambda);
-    const IterationScales scales{tp.icp_huber_k * t.icp_rms_m, tp.photometric_huber_k * t.rgb_rms,
-                                 t.live_intensity_gain};  // as tracking's last iteration
-    const LinearSystemSums still =
-        m.tracker.compute_sums(m.stream, m.masked[0], m.prediction.levels[0], camera_motion, m.track_rect, scales);
-    const double still_cost = mean_cost(still.icp[27], still.icp[28], still.rgb[27], still.rgb[28], lambda);
-    if (moved_n > 0 && still.icp[28] >= rest.min_correspondence_fraction * moved_n &&
-        still_cost <= (1.0 + rest.max_cost_increase) * moved_cost)
-      m.motion = camera_motion;
+// (`camera_motion`, the background's) explain as well as its tracked motion stays (RestParams).
+// Then the per-pixel alignment cost of each model's motion over its residual rectangle (the
+// segmentation's input). All models' rest tests are one submission, their residuals another.
+void CoFusion::settle_models(const std::vector<Model*>& models, const Eigen::Isometry3d& camera_motion) {
+  std::vector<Model*> testing;
+  for (Model* m : models)
+    if (m->id != 0 && !m->resting && params_.rest.prefer_rest && !m->tracking.failed && params_.motion_segmentation)
+      testing.push_back(m);
+  if (!testing.empty()) {
+    gpu::CommandList cmd = main_stream_.begin();
+    std::vector<uint32_t> groups;
+    for (Model* m : testing) {
+      const TrackerParams& tp = m->tracker.params();
+      const TrackingResult& t = m->tracking;
+      const IterationScales scales{tp.icp_huber_k * t.icp_rms_m, tp.photometric_huber_k * t.rgb_rms,
+                                   t.live_intensity_gain};  // as tracking's last iteration
+      cmd.set_profile_group(m->stream.profile_group());
+      groups.push_back(m->tracker.record_reduction(cmd, m->masked[0], m->prediction.levels[0], camera_motion,
+                                                   m->track_rect, scales));
+    }
+    std::vector<const float*> partials;
+    for (size_t k = 0; k < testing.size(); ++k) partials.push_back(testing[k]->tracker.record_readback(cmd, groups[k]));
+    main_stream_.wait(main_stream_.submit(std::move(cmd)));
+    for (size_t k = 0; k < testing.size(); ++k)
+      rest_if_still_fits(*testing[k], camera_motion, Tracker::add_partials(partials[k], groups[k]));
   }
-  m.last_motion = m.tracking.failed ? Eigen::Isometry3d::Identity() : m.velocity_motion.value_or(m.motion);
-  m.T_prediction_live = m.motion;
-  if (params_.motion_segmentation) compute_residuals(m);
+  for (Model* m : models) {
+    m->last_motion = m->tracking.failed ? Eigen::Isometry3d::Identity() : m->velocity_motion.value_or(m->motion);
+    m->T_prediction_live = m->motion;
+  }
+  if (params_.motion_segmentation) compute_residuals(models);
 }
 
-// The per-pixel residuals of the live frame against the model's prediction (the live frame taken
-// to the prediction's view by T_prediction_live), over its residual rectangle, read back.
-void CoFusion::compute_residuals(Model& m) {
-  m.residuals_host.resize(slots_.size() * 4);
-  const size_t row_floats = size_t(intrinsics_.width) * 4, offset = size_t(m.residual_rect.y0) * row_floats;
-  const size_t bytes = size_t(m.residual_rect.height()) * row_floats * sizeof(float);
-  gpu::CommandList cmd = m.stream.begin();
-  motion_.residuals(cmd, live_.levels[0], m.prediction.levels[0], m.T_prediction_live, m.residuals, m.residual_rect,
-                    m.tracking.live_intensity_gain);
-  const void* host = m.stream.record_download(cmd, m.residuals, bytes, offset * sizeof(float));
-  m.stream.wait(m.stream.submit(std::move(cmd)));
-  std::memcpy(m.residuals_host.data() + offset, host, bytes);
-  m.settled = true;
+// The rest test of one object from the sums of its pixels at `camera_motion` (`still`). The
+// tracked motion's fit is tracking's last iteration's (at the pose before its final, converged
+// step), so only rest needs a reduction of its own.
+void CoFusion::rest_if_still_fits(Model& m, const Eigen::Isometry3d& camera_motion, const LinearSystemSums& still) {
+  const RestParams& rest = params_.rest;
+  const TrackerParams& tp = m.tracker.params();
+  const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
+  const TrackingResult& t = m.tracking;
+  const double moved_n = t.icp_inliers;
+  const double moved_cost = mean_alignment_cost(t, lambda);
+  const double still_cost = mean_cost(still.icp[27], still.icp[28], still.rgb[27], still.rgb[28], lambda);
+  if (moved_n > 0 && still.icp[28] >= rest.min_correspondence_fraction * moved_n &&
+      still_cost <= (1.0 + rest.max_cost_increase) * moved_cost)
+    m.motion = camera_motion;
+}
+
+// The per-pixel residuals of the live frame against each model's prediction (the live frame
+// taken to the prediction's view by T_prediction_live), over its residual rectangle, read back:
+// one submission for all models.
+void CoFusion::compute_residuals(const std::vector<Model*>& models) {
+  const size_t row_floats = size_t(intrinsics_.width) * 4;
+  gpu::CommandList cmd = main_stream_.begin();
+  for (Model* m : models) {
+    cmd.set_profile_group(m->stream.profile_group());
+    motion_.residuals(cmd, live_.levels[0], m->prediction.levels[0], m->T_prediction_live, m->residuals,
+                      m->residual_rect, m->tracking.live_intensity_gain);
+  }
+  std::vector<const void*> host;
+  for (Model* m : models) {
+    const size_t offset = size_t(m->residual_rect.y0) * row_floats * sizeof(float);
+    const size_t bytes = size_t(m->residual_rect.height()) * row_floats * sizeof(float);
+    host.push_back(gpu::record_download(main_stream_.context(), cmd, m->residuals, bytes, offset, m->residuals_readback));
+  }
+  main_stream_.wait(main_stream_.submit(std::move(cmd)));
+  tbb::parallel_for(size_t{0}, models.size(), [&](size_t k) {
+    Model& m = *models[k];
+    m.residuals_host.resize(slots_.size() * 4);
+    const size_t offset = size_t(m.residual_rect.y0) * row_floats;
+    std::memcpy(m.residuals_host.data() + offset, host[k], size_t(m.residual_rect.height()) * row_floats * sizeof(float));
+    m.settled = true;
+  });
 }
 
 // The segmentation's input for model m: per-pixel alignment cost in metres, NaN = no geometry.
@@ -480,7 +514,11 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {}, m->velocity_motion.reset();
   set_work_rects(active);
   resting_slots_ = resting_slots(active);
-  live_.upload(main_stream_, depth_m, rgb);
+  // The inputs' upload opens the preprocessing's submission (no submission of its own); the
+  // previous frame's work on the main stream has finished with them.
+  main_stream_.wait_idle();
+  gpu::CommandList pre = main_stream_.begin();
+  live_.record_upload(main_stream_.context(), pre, depth_m, rgb);
   stage("upload");
 
   // CPU job system: superpixels of this frame while the GPU preprocesses, predicts and tracks.
@@ -503,7 +541,6 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   else
     cpu_jobs.run(encode);
 
-  gpu::CommandList pre = main_stream_.begin();
   preprocessor_.record_frame(pre, live_, kernels::FramePyramid::kUploadMetresPerUnit, preprocess_);
   const gpu::TimelinePoint preprocessed = main_stream_.submit(std::move(pre));
   main_stream_.wait(preprocessed);
@@ -666,7 +703,7 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active, const floa
       m->motion = camera_motion;
       m->motion_refused = bg.motion_refused;
     }
-  for_each_model(active, [&](Model& m) { settle_model(m, camera_motion); });
+  settle_models(active, camera_motion);
   return refusal.empty() ? CameraState::kTracking : CameraState::kRefused;
 }
 

@@ -409,8 +409,9 @@ class CoFusion {
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
   // Tracks the models together (track_together), each with its own live pixels.
   void track(const std::vector<Model*>& models);
-  void settle_model(Model& m, const Eigen::Isometry3d& camera_motion);
-  void compute_residuals(Model& m);
+  void settle_models(const std::vector<Model*>& models, const Eigen::Isometry3d& camera_motion);
+  void rest_if_still_fits(Model& m, const Eigen::Isometry3d& camera_motion, const LinearSystemSums& still);
+  void compute_residuals(const std::vector<Model*>& models);
   // Fuses the pixels of m's slot and of `also_slots` (bit s for slot s).
   void fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect, uint32_t also_slots = 0);
   void model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const;

@@ -120,6 +120,7 @@ struct CoFusion::Model {
   std::vector<kernels::FramePyramid::Level> masked;  // live levels with the vertices this model owned
   gpu::BufferPtr residuals;                   // vec4 per pixel (motion_kernels.h)
   std::vector<float> residuals_host;          // its read-back (valid in residual_rect's rows)
+  gpu::BufferPtr residuals_readback;          // host-visible copy of `residuals` where it is not mapped
   // Objects work only where they are: tracking, masking and fusion in the bounding rectangle of
   // their labelled pixels (previous segmentation for tracking, this one for fusion), residuals in
   // that of the previous segmentation grown by MotionCostParams::object_margin_px. The

@@ -134,14 +134,7 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
 
 const float* Tracker::record_readback(gpu::CommandList& cmd, uint32_t groups) {
   const size_t bytes = static_cast<size_t>(groups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
-  if (bytes > partials_->size()) throw Error("Tracker::record_readback: more workgroups than partial sums");
-  if (partials_->mapped()) return static_cast<const float*>(partials_->mapped());
-  if (!partials_readback_ || partials_readback_->size() < partials_->size())
-    partials_readback_ =
-        gpu::Buffer::create(ctx_, partials_->size(), "tracker partial sums readback", gpu::BufferUsage::Staging);
-  cmd.barrier();
-  cmd.copy(partials_, partials_readback_, bytes);
-  return static_cast<const float*>(partials_readback_->mapped());
+  return static_cast<const float*>(gpu::record_download(ctx_, cmd, partials_, bytes, 0, partials_readback_));
 }
 
 LinearSystemSums Tracker::add_partials(const float* partials, uint32_t groups) {
@@ -237,6 +230,7 @@ void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<
       if (!request) continue;
       const TrackingJob& job = jobs[j];
       const auto& live = (*job.live)[size_t(request->level)];
+      cmd.set_profile_group(job.profile_group);
       const uint32_t groups =
           job.tracker->record_reduction(cmd, live, (*job.reference)[size_t(request->level)], request->T_reference_live,
                                         rect_at(job.rect_level0, live, request->level), request->scales);

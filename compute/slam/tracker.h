@@ -82,7 +82,8 @@ struct TrackingJob {
   const std::vector<kernels::FramePyramid::Level>* reference = nullptr;
   Eigen::Isometry3d T_reference_live_guess = Eigen::Isometry3d::Identity();
   std::optional<PixelRect> rect_level0;
-  TrackingResult result;  // set by track_together
+  std::string profile_group;  // the kernel profile's group for its reductions; empty = the stream's
+  TrackingResult result;      // set by track_together
 };
 
 // Tracker::track for every job at once, with the same results: the jobs' Gauss-Newton loops

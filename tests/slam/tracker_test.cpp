@@ -810,7 +810,7 @@ TEST_F(Tracking, TrackedTogetherEqualsTrackedOneByOne) {
   for (const Case& c : cases) {
     trackers.push_back(std::make_unique<slam::Tracker>(ctx(), c.params));
     alone.push_back(trackers.back()->track(stream(), live.levels, c.reference->levels, c.guess, c.rect));
-    jobs.push_back({trackers.back().get(), &live.levels, &c.reference->levels, c.guess, c.rect, {}});
+    jobs.push_back({trackers.back().get(), &live.levels, &c.reference->levels, c.guess, c.rect, {}, {}});
   }
   slam::track_together(stream(), jobs);
   for (size_t i = 0; i < cases.size(); ++i) {
