@@ -12,6 +12,7 @@
 #include <span>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_group.h>
 
 #include "common/se3.h"
@@ -894,11 +895,15 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
   std::vector<std::span<const float>> views(costs.begin(), costs.end());
   segmentation::SegmentationResult seg = segmenter_.segment(superpixels, rgb, depth_m, views);
   mark_excluded(excluded, segmentation::kNoLabel, seg.labels);
-  part("CRF");
-  rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size()));
-  part("rising cost");
-  changed_ = changed_since_previous(superpixels, depth_m, rgb, seg.labels);
-  part("previous frame");
+  out.segment_parts_ms.emplace_back("unaries", seg.unary_ms);
+  out.segment_parts_ms.emplace_back("CRF", seg.crf_ms);
+  out.segment_parts_ms.emplace_back("components", seg.post_ms);
+  lap = Clock::now();
+  // Two independent pieces of evidence for spawns, side by side.
+  tbb::parallel_invoke(
+      [&] { rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size())); },
+      [&] { changed_ = changed_since_previous(superpixels, depth_m, rgb, seg.labels); });
+  part("rising cost and previous frame");
   slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
   part("lifecycle");

@@ -353,8 +353,9 @@ struct CoFusionFrame {
   double superpixels_ms = 0;
   double superpixels_overlap_ms = 0;  // of superpixels_ms, the part that ran while GPU work was in flight
   double segment_ms = 0;
-  // segment_ms by part, in order: the models' costs, the CRF (segmenter), the rising background
-  // cost, the change since the previous frame, the lifecycle.
+  // segment_ms by part, in order: the models' costs, the segmenter's unaries, CRF and connected
+  // components, the rising background cost and the change since the previous frame (side by
+  // side), the lifecycle.
   std::vector<std::pair<std::string, double>> segment_parts_ms;
 };
 
