@@ -389,28 +389,25 @@ void CoFusion::compute_residuals(const std::vector<Model*>& models) {
     motion_.residuals(cmd, live_.levels[0], m->prediction.levels[0], m->T_prediction_live, m->residuals,
                       m->residual_rect, m->tracking.live_intensity_gain);
   }
-  std::vector<const void*> host;
   for (Model* m : models) {
     const size_t offset = size_t(m->residual_rect.y0) * row_floats * sizeof(float);
     const size_t bytes = size_t(m->residual_rect.height()) * row_floats * sizeof(float);
-    host.push_back(gpu::record_download(main_stream_.context(), cmd, m->residuals, bytes, offset, m->residuals_readback));
+    m->residual_rows = static_cast<const float*>(
+        gpu::record_download(main_stream_.context(), cmd, m->residuals, bytes, offset, m->residuals_readback));
   }
   main_stream_.wait(main_stream_.submit(std::move(cmd)));
-  tbb::parallel_for(size_t{0}, models.size(), [&](size_t k) {
-    Model& m = *models[k];
-    m.residuals_host.resize(slots_.size() * 4);
-    const size_t offset = size_t(m.residual_rect.y0) * row_floats;
-    std::memcpy(m.residuals_host.data() + offset, host[k], size_t(m.residual_rect.height()) * row_floats * sizeof(float));
-    m.settled = true;
-  });
+  for (Model* m : models) m->settled = true;
 }
 
 // The segmentation's input for model m: per-pixel alignment cost in metres, NaN = no geometry.
 void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<float>& costs) const {
-  const float* r = m.residuals_host.data();
   const size_t n = slots_.size();
   const PixelRect& rect = m.residual_rect;
   const size_t width = size_t(intrinsics_.width);
+  // Pixel i's residuals (4 floats); only pixels of the residual rectangle's rows are read back.
+  const auto residual = [width](const Model& model, size_t i) {
+    return model.residual_rows + 4 * (i - size_t(model.residual_rect.y0) * width);
+  };
   // Outside its residual rectangle the model has no geometry; only the rectangle is read.
   costs.assign(n, kNaN);
   if (!m.settled) return;  // not tracked this frame (the camera was relocalised): no evidence
@@ -427,18 +424,18 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
                                   : p.photometric_m;
   // Objects: which pixels of the rectangle lie within unseen_surface_reach_px of one where the
   // object has geometry.
-  const float* bg_r = models_.front()->residuals_host.data();
+  const Model& bg = *models_.front();
   const std::optional<WindowCount> with_geometry =
       background ? std::nullopt
                  : std::optional<WindowCount>(std::in_place, rect.width(), rect.height(), [&](int x, int y) {
-                     return r[4 * (size_t(y + rect.y0) * width + size_t(x + rect.x0)) + 3] == MOTION_STATUS_ASSOCIATED;
+                     return residual(m, size_t(y + rect.y0) * width + size_t(x + rect.x0))[3] == MOTION_STATUS_ASSOCIATED;
                    });
   tbb::parallel_for(tbb::blocked_range<int>(rect.y0, rect.y1, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (size_t i = size_t(y) * width + size_t(rect.x0); i < size_t(y) * width + size_t(rect.x1); ++i) {
-        const float* v = r + 4 * i;  // (point-to-plane m, live z - predicted z m, |dI|, status)
+        const float* v = residual(m, i);  // (point-to-plane m, live z - predicted z m, |dI|, status)
         if (!background && v[3] == MOTION_STATUS_NO_MODEL) {
-          const float* b = bg_r + 4 * i;
+          const float* b = residual(bg, i);
           if (b[3] == MOTION_STATUS_ASSOCIATED && b[1] < -p.occluding_margin_m &&
               with_geometry->around(int(i % width) - rect.x0, y - rect.y0, p.unseen_surface_reach_px) > 0)
             costs[i] = p.unseen_surface_cost_m;

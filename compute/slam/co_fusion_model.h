@@ -119,7 +119,9 @@ struct CoFusion::Model {
   Tracker tracker;
   std::vector<kernels::FramePyramid::Level> masked;  // live levels with the vertices this model owned
   gpu::BufferPtr residuals;                   // vec4 per pixel (motion_kernels.h)
-  std::vector<float> residuals_host;          // its read-back (valid in residual_rect's rows)
+  // The read-back residuals of residual_rect's rows, from its first row on (`residuals`' own
+  // mapping, or residuals_readback's where it has none); valid until the next compute_residuals.
+  const float* residual_rows = nullptr;
   gpu::BufferPtr residuals_readback;          // host-visible copy of `residuals` where it is not mapped
   // Objects work only where they are: tracking, masking and fusion in the bounding rectangle of
   // their labelled pixels (previous segmentation for tracking, this one for fusion), residuals in
