@@ -269,8 +269,10 @@ void read_segmentation(Section& s, segmentation::MotionSegmentationParams& c) {
         c.crf.method = segmentation::CrfMethod::kExact;
       else if (method == "permutohedral")
         c.crf.method = segmentation::CrfMethod::kPermutohedral;
+      else if (method == "auto")
+        c.crf.method = segmentation::CrfMethod::kAuto;
       else
-        throw Error(q.where() + ".method: expected \"exact\" or \"permutohedral\"");
+        throw Error(q.where() + ".method: expected \"exact\", \"permutohedral\" or \"auto\"");
     }
   });
   // The segmenter validates the rest (it throws naming the parameter).

@@ -6,6 +6,8 @@
 #include <limits>
 #include <string>
 
+#include <tbb/task_arena.h>
+
 #include "common/error.h"
 #include "segmentation/parallel.h"
 
@@ -68,9 +70,15 @@ void softmax_rows(const float* energy, int nodes, int labels, float* q) {
 
 }  // namespace
 
+CrfMethod effective_method(CrfMethod method, int threads) {
+  if (method != CrfMethod::kAuto) return method;
+  return threads >= kExactMinThreads ? CrfMethod::kExact : CrfMethod::kPermutohedral;
+}
+
 void DenseCrf::set_nodes(std::span<const CrfNode> nodes, const CrfParams& params) {
   check(params);
   params_ = params;
+  params_.method = effective_method(params.method, tbb::this_task_arena::max_concurrency());
   node_count_ = static_cast<int>(nodes.size());
   for (size_t i = 0; i < nodes.size(); ++i) {
     const CrfNode& c = nodes[i];
@@ -78,7 +86,7 @@ void DenseCrf::set_nodes(std::span<const CrfNode> nodes, const CrfParams& params
         !std::isfinite(c.b) || !std::isfinite(c.depth_m))
       throw Error("CRF: node " + std::to_string(i) + " has a non-finite feature");
   }
-  if (params.method == CrfMethod::kPermutohedral) {
+  if (params_.method == CrfMethod::kPermutohedral) {
     set_permutohedral(nodes);
     return;
   }

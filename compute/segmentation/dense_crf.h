@@ -25,7 +25,16 @@ struct CrfNode {
 enum class CrfMethod {
   kExact,          // explicit kernel over all pairs (values below exact_cutoff dropped)
   kPermutohedral,  // permutohedral-lattice filtering (approximate Gaussians)
+  kAuto,           // exact where the job system has kExactMinThreads threads or more, else the lattice
 };
+
+// The lattice's filtering hardly runs in parallel at Co-Fusion's 1200 nodes, the exact method's
+// kernels do (fixed chunks of nodes). Measured in the pipeline (five_objects, 7 labels, median
+// ms per frame): 2 threads (the dev machine) lattice 4.4, exact 5.2; 4 threads (a 16-core Xeon
+// host limited by taskset) 5.6 and 5.3; 16 threads 6.3-8.8 and 3.5-3.8 (docs/experiments.md).
+constexpr int kExactMinThreads = 4;
+// The method kAuto stands for with `threads` threads (the others stand for themselves).
+CrfMethod effective_method(CrfMethod method, int threads);
 
 struct CrfParams {
   int iterations = 10;  // mean-field iterations
@@ -38,16 +47,17 @@ struct CrfParams {
   // Smoothness kernel: weight and position sigma (grid units; Co-Fusion's 2).
   float smoothness_weight = 2.0f;
   float sigma_smoothness = 2.0f;
-  // Inference method. Measured on the 2-core dev machine (AMD EPYC VM), set-up + 10 mean-field
+  // Inference method (kAuto: by the job system's threads, above). Measured on the 2-core dev
+  // machine (AMD EPYC VM), set-up + 10 mean-field
   // iterations, 3 labels, nodes on a jittered grid, best of 10, milliseconds:
   //   nodes          1 thread: exact / permutohedral    2 threads: exact / permutohedral
   //    300 (20x15)            1.4 / 0.8                          1.3 / 0.8
   //   1200 (40x30)            7.8 / 3.3                          4.7 / 3.3
   //   4800 (80x60)           36.6 / 12.9                        18.2 / 12.4
-  // The lattice is faster at Co-Fusion's 1200 superpixels (2.4x in CPU time, which is what counts
-  // next to a CPU Vulkan driver) and the gap grows with the count, so it is the default; its
-  // labels agree with the exact method's (dense_crf_test.cpp).
-  CrfMethod method = CrfMethod::kPermutohedral;
+  // The lattice is faster at Co-Fusion's 1200 superpixels on few threads (2.4x in CPU time, which
+  // is what counts next to a CPU Vulkan driver) and the gap grows with the count; with many
+  // threads the exact method is (above). Their labels agree (dense_crf_test.cpp).
+  CrfMethod method = CrfMethod::kAuto;
   // Exact method: kernel values below this are dropped (pairs farther apart than
   // sqrt(-2 ln cutoff) sigmas in position; 1e-6 -> 5.3 sigma). 0 keeps every pair (O(S^2)).
   float exact_cutoff = 1e-6f;

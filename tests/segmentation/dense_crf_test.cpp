@@ -6,6 +6,8 @@
 #include <random>
 #include <vector>
 
+#include <tbb/task_arena.h>
+
 #include "segmentation/dense_crf.h"
 #include "segmentation/permutohedral.h"
 #include "support/test_support.h"
@@ -47,6 +49,33 @@ std::vector<int> hard_labels(const std::vector<float>& q, int labels) {
 // The lattice approximates Gaussian sums up to a position-dependent scale (the blur is not a
 // normalised Gaussian), which the CRF cancels by normalising with the filtered ones. So compare
 // normalised filtering: a Gaussian-weighted average of a smooth signal, lattice vs explicit sums.
+TEST(DenseCrf, AutoMethodFollowsTheJobSystemsThreads) {
+  EXPECT_EQ(effective_method(CrfMethod::kAuto, 1), CrfMethod::kPermutohedral);
+  EXPECT_EQ(effective_method(CrfMethod::kAuto, kExactMinThreads - 1), CrfMethod::kPermutohedral);
+  EXPECT_EQ(effective_method(CrfMethod::kAuto, kExactMinThreads), CrfMethod::kExact);
+  EXPECT_EQ(effective_method(CrfMethod::kExact, 1), CrfMethod::kExact);
+  EXPECT_EQ(effective_method(CrfMethod::kPermutohedral, 64), CrfMethod::kPermutohedral);
+  // Inside an arena of n threads kAuto infers exactly as the method it stands for there.
+  const std::vector<CrfNode> nodes = grid_nodes(20, 15, 3);
+  const int L = 3;
+  std::vector<float> unary(nodes.size() * L);
+  for (size_t k = 0; k < unary.size(); ++k) unary[k] = 0.1f * static_cast<float>((k * 7919) % 23);
+  const auto infer = [&](CrfMethod method, int threads) {
+    std::vector<float> q;
+    tbb::task_arena(threads).execute([&] {
+      CrfParams params;
+      params.method = method;
+      DenseCrf crf;
+      crf.set_nodes(nodes, params);
+      crf.infer(unary, L, q);
+    });
+    return q;
+  };
+  EXPECT_EQ(infer(CrfMethod::kAuto, 1), infer(CrfMethod::kPermutohedral, 1));
+  EXPECT_EQ(infer(CrfMethod::kAuto, kExactMinThreads), infer(CrfMethod::kExact, kExactMinThreads));
+  EXPECT_NE(infer(CrfMethod::kExact, 1), infer(CrfMethod::kPermutohedral, 1));  // the two differ at all
+}
+
 TEST(PermutohedralLattice, NormalisedFilteringMatchesGaussianAverages) {
   for (const int d : {2, 6}) {
     std::mt19937 rng(7);
