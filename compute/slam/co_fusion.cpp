@@ -712,8 +712,9 @@ CameraFits CoFusion::camera_fits(const Model& bg, const float* depth_m) const {
   const auto fit = [&](const Eigen::Isometry3d& T) { return depth_fit(depth_m, previous_depth_m_.data(), intrinsics_, T, p); };
   CameraFits f;
   f.guess = params_.slam.constant_velocity_guess ? bg.last_motion : Eigen::Isometry3d::Identity();
-  f.tracked = fit(bg.motion);
-  const double by_guess = fit(f.guess), still = fit(Eigen::Isometry3d::Identity());
+  double by_guess = 0, still = 0;
+  tbb::parallel_invoke([&] { f.tracked = fit(bg.motion); }, [&] { by_guess = fit(f.guess); },
+                       [&] { still = fit(Eigen::Isometry3d::Identity()); });
   f.from_guess = by_guess >= still;
   f.start = std::max(by_guess, still);
   return f;
@@ -983,7 +984,9 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
   }
   if (params_.motion_segmentation && params_.lifecycle.slide_min_shift_px > 0 && rgb) {  // LifecycleParams::slide_*
     previous_intensity_.resize(n);
-    for (size_t i = 0; i < n; ++i) previous_intensity_[i] = grey_level(rgb, i);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i < r.end(); ++i) previous_intensity_[i] = grey_level(rgb, i);
+    });
   }
   camera_history_.push_back(camera == CameraState::kLost ? std::nullopt : std::optional(T_world_camera_));
   if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();

@@ -337,12 +337,20 @@ std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superp
       !spawn_camera_steady(*models_.front()))
     return changed;
   const PreviousSamples s = sample_previous(depth_m, rgb, labels);
+  // Per pixel: 0 untested, 1 tested, 2 tested and different (in parallel); then per superpixel.
+  std::vector<uint8_t> verdict(n, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      if (s.intensity[i] < 0.0f) continue;
+      const float d = std::abs(s.gain * grey_level(rgb, i) - s.intensity[i]);
+      verdict[i] = 1 + uint8_t(d > p.slide_min_intensity && d > float(p.slide_min_shift_px) * s.gradient[i]);
+    }
+  });
   std::vector<int> tested(size_t(superpixels.count), 0), differ(size_t(superpixels.count), 0);
   for (size_t i = 0; i < n; ++i) {
-    if (s.intensity[i] < 0.0f) continue;
-    const float d = std::abs(s.gain * grey_level(rgb, i) - s.intensity[i]);
+    if (verdict[i] == 0) continue;
     ++tested[size_t(superpixels.label[i])];
-    differ[size_t(superpixels.label[i])] += d > p.slide_min_intensity && d > float(p.slide_min_shift_px) * s.gradient[i];
+    differ[size_t(superpixels.label[i])] += verdict[i] == 2;
   }
   for (size_t i = 0; i < n; ++i) {
     const size_t sp = size_t(superpixels.label[i]);
