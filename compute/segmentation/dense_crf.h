@@ -56,10 +56,10 @@ struct CrfParams {
   //   4800 (80x60)           36.6 / 12.9                        18.2 / 12.4
   // The lattice is faster at Co-Fusion's 1200 superpixels on few threads (2.4x in CPU time, which
   // is what counts next to a CPU Vulkan driver) and the gap grows with the count; with many
-  // threads the exact method is (above). Their labels agree (dense_crf_test.cpp), but not the
-  // pipeline's every decision: with the exact method one_object's resting box in both mode is
-  // re-found as an outlier region instead of waking (SemanticScenes.ARecognisedBoxRests...), so
-  // the lattice stays the default everywhere and kAuto is a choice (config "auto").
+  // threads the exact method is (above). Their labels agree (dense_crf_test.cpp). The lattice
+  // stays the default on every machine so that a run's results do not depend on how many cores
+  // it has (as every other parallel step's do not, detail::for_fixed_chunks); kAuto is a choice
+  // (config "auto") for speed on many cores.
   CrfMethod method = CrfMethod::kPermutohedral;
   // Exact method: kernel values below this are dropped (pairs farther apart than
   // sqrt(-2 ln cutoff) sigmas in position; 1e-6 -> 5.3 sigma). 0 keeps every pair (O(S^2)).

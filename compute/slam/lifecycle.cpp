@@ -516,15 +516,17 @@ void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector
   }
   const auto lost = [&](const Model& m) { return m.slot >= 0 && slot_pixels[size_t(m.slot)] == 0; };
   Model* reactivated = nullptr;
-  bool was_active = false;
+  bool was_active = false, was_resting = false;
   if (p.reactivate)
     for (const ModelState state : {ModelState::kActive, ModelState::kInactive}) {
       for (auto& m : models_) {
         // A model merged away this frame is inactive until the list is pruned: not a candidate.
         if (m->state != state || m->id == 0 || m->slot == kRemovedSlot || (state == ModelState::kActive && !lost(*m))) continue;
+        const bool resting = m->resting;
         if (try_reactivate(*m, sp.slot, centroid)) {
           reactivated = m.get();
           was_active = state == ModelState::kActive;
+          was_resting = resting;
           break;
         }
       }
@@ -533,8 +535,17 @@ void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector
   if (reactivated) {
     reactivated->last_motion = velocity_guess;
     reactivated->guess_from_centroid_step = true;
+    const std::string id = std::to_string(reactivated->id);
+    // A resting model whose pixels became an outlier region has started moving, as wake_resting
+    // finds it when its pixels stay its own: its surfels leave the background.
+    if (was_resting) {
+      spawned_slots.push_back(sp.slot);
+      out.events.push_back("frame " + std::to_string(frame_) + ": model " + id + " started moving (re-found as " +
+                           share + " of the image)");
+      return;
+    }
     out.events.push_back("frame " + std::to_string(frame_) + ": " + (was_active ? "re-found model " : "re-activated model ") +
-                         std::to_string(reactivated->id) + " (" + share + " of the image)");
+                         id + " (" + share + " of the image)");
     return;
   }
   Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
