@@ -252,8 +252,8 @@ void record_upload(Context& ctx, CommandList& cmd, const BufferPtr& dst, const v
                    size_t dst_offset, BufferPtr& staging) {
   if (bytes == 0) return;
   if (dst_offset + bytes > dst->size())
-    throw Error("upload of " + std::to_string(bytes) + " bytes into '" + dst->name() + "' (" + std::to_string(dst->size()) +
-                " bytes) is out of range");
+    throw Error("upload of " + std::to_string(bytes) + " bytes into '" + dst->name() + "' (" +
+                std::to_string(dst->size()) + " bytes) is out of range");
   if (dst->mapped()) {
     std::memcpy(static_cast<char*>(dst->mapped()) + dst_offset, src, bytes);
     return;

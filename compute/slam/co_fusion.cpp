@@ -208,8 +208,11 @@ void CoFusion::track(const std::vector<Model*>& models) {
   // lower cost per residual is kept (the inlier counts mislead: a wrong pose can pair more pixels).
   std::vector<TrackingJob> still;
   std::vector<size_t> again;
+  const auto moving_guess = [&](size_t i) {
+    return !jobs[i].T_reference_live_guess.isApprox(Eigen::Isometry3d::Identity());
+  };
   for (size_t i = 0; i < models.size(); ++i)
-    if (models[i]->guess_from_centroid_step && !jobs[i].T_reference_live_guess.isApprox(Eigen::Isometry3d::Identity())) {
+    if (models[i]->guess_from_centroid_step && moving_guess(i)) {
       still.push_back(job(*models[i], Eigen::Isometry3d::Identity()));
       again.push_back(i);
     }
@@ -383,6 +386,8 @@ void CoFusion::rest_if_still_fits(Model& m, const Eigen::Isometry3d& camera_moti
 // one submission for all models.
 void CoFusion::compute_residuals(const std::vector<Model*>& models) {
   const size_t row_floats = size_t(intrinsics_.width) * 4;
+  std::vector<gpu::TimelinePoint> predicted;  // each model's prediction, on its own stream
+  for (Model* m : models) predicted.push_back(m->stream.last_submitted());
   gpu::CommandList cmd = main_stream_.begin();
   for (Model* m : models) {
     cmd.set_profile_group(m->stream.profile_group());
@@ -395,7 +400,7 @@ void CoFusion::compute_residuals(const std::vector<Model*>& models) {
     m->residual_rows = static_cast<const float*>(
         gpu::record_download(main_stream_.context(), cmd, m->residuals, bytes, offset, m->residuals_readback));
   }
-  main_stream_.wait(main_stream_.submit(std::move(cmd)));
+  main_stream_.wait(main_stream_.submit(std::move(cmd), predicted));
   for (Model* m : models) m->settled = true;
 }
 
@@ -428,7 +433,8 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
   const std::optional<WindowCount> with_geometry =
       background ? std::nullopt
                  : std::optional<WindowCount>(std::in_place, rect.width(), rect.height(), [&](int x, int y) {
-                     return residual(m, size_t(y + rect.y0) * width + size_t(x + rect.x0))[3] == MOTION_STATUS_ASSOCIATED;
+                     const size_t i = size_t(y + rect.y0) * width + size_t(x + rect.x0);
+                     return residual(m, i)[3] == MOTION_STATUS_ASSOCIATED;
                    });
   tbb::parallel_for(tbb::blocked_range<int>(rect.y0, rect.y1, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)

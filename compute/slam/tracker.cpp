@@ -208,9 +208,11 @@ void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<
   loops.reserve(jobs.size());
   for (size_t j = 0; j < jobs.size(); ++j) {
     TrackingJob& job = jobs[j];
-    if (!job.tracker || !job.live || !job.reference) throw Error("track_together: job " + std::to_string(j) + " is incomplete");
+    if (!job.tracker || !job.live || !job.reference)
+      throw Error("track_together: job " + std::to_string(j) + " is incomplete");
     for (size_t i = 0; i < j; ++i)
-      if (jobs[i].tracker == job.tracker) throw Error("track_together: jobs " + std::to_string(i) + " and " + std::to_string(j) + " share a tracker");
+      if (jobs[i].tracker == job.tracker)
+        throw Error("track_together: jobs " + std::to_string(i) + " and " + std::to_string(j) + " share a tracker");
     job.tracker->check_inputs(*job.live, *job.reference, job.T_reference_live_guess, "track_together");
     pixels.push_back(level_pixels(*job.live));
     loops.emplace_back(pixels.back(), job.T_reference_live_guess, job.tracker->params());
@@ -220,7 +222,9 @@ void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<
     uint32_t groups;
     const float* partials;
   };
-  const auto unfinished = [&] { return std::any_of(loops.begin(), loops.end(), [](const auto& l) { return !l.done(); }); };
+  const auto unfinished = [&] {
+    return std::any_of(loops.begin(), loops.end(), [](const GaussNewton& loop) { return !loop.done(); });
+  };
   std::vector<Pending> pending;
   for (bool first = true; unfinished(); first = false) {
     auto cmd = stream.begin();
