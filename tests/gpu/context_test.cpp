@@ -237,6 +237,42 @@ TEST_F(ComputeCore, RecordedDownloadReadsTheResultOfItsOwnSubmission) {
   EXPECT_EQ(staging_ctx.validation_error_count(), 0u);
 }
 
+// gpu::record_upload: the data is copied at once (into the buffer's mapping or a staging buffer)
+// and the list's own later work sees it; a staging buffer is grown as needed and reused by the
+// next list once the earlier one has completed.
+TEST_F(ComputeCore, RecordedUploadIsSeenByTheListsOwnWork) {
+  auto staging_options = validated_options();
+  staging_options.force_staging = true;
+  gpu::Context staging_ctx(staging_options);
+  for (gpu::Context* c : {&ctx(), &staging_ctx}) {
+    SCOPED_TRACE(c == &ctx() ? "fixture context" : "staging context");
+    gpu::Stream s(*c, 0, "recorded upload");
+    gpu::BufferPtr staging;  // kept between lists, as the frame's inputs keep theirs
+    for (uint32_t count : {1u, 63u, 64u, 65u, 1000u, 7u}) {
+      std::vector<uint32_t> data(count);
+      std::iota(data.begin(), data.end(), count);
+      auto dst = gpu::Buffer::create(*c, (count + 3) * 4, "upload target");
+      auto copy = gpu::Buffer::create(*c, count * 4, "copy of the upload");
+      auto cmd = s.begin();
+      gpu::record_upload(*c, cmd, dst, data.data(), count * 4, 3 * 4, staging);
+      data.assign(count, 0);  // the caller's memory may change once the call returns
+      cmd.barrier();
+      cmd.copy(dst, copy, count * 4, 3 * 4, 0);
+      const auto* host = static_cast<const uint32_t*>(s.record_download(cmd, copy, count * 4));
+      s.wait(s.submit(std::move(cmd)));
+      std::vector<uint32_t> expected(count);
+      std::iota(expected.begin(), expected.end(), count);
+      EXPECT_EQ(std::vector<uint32_t>(host, host + count), expected) << count << " elements";
+    }
+    auto cmd = s.begin();
+    auto small = gpu::Buffer::create(*c, 16, "small upload target");
+    const std::vector<uint8_t> big(16);
+    EXPECT_THAT([&] { gpu::record_upload(*c, cmd, small, big.data(), 16, 4, staging); },
+                ThrowsMessage<Error>(HasSubstr("small upload target")));
+  }
+  EXPECT_EQ(staging_ctx.validation_error_count(), 0u);
+}
+
 TEST_F(ComputeCore, OutOfRangeTransfersAndHugeBuffersFailWithTheirNames) {
   auto b = gpu::Buffer::create(ctx(), 16, "small buffer");
   std::vector<uint8_t> big(64);
