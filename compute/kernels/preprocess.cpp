@@ -4,6 +4,9 @@
 
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "embedded_shaders.h"
 #include "shared/host_device.h"
 
@@ -43,13 +46,16 @@ FramePyramid FramePyramid::allocate(gpu::Context& ctx, const Intrinsics& intrins
 }
 
 namespace {
-// Depth in upload units; NaN, negative and out-of-range readings become "no reading".
+// Depth in upload units; NaN, negative and out-of-range readings become "no reading". In
+// parallel: it is on the frame's critical path, before anything else starts.
 std::vector<uint16_t> depth_units(const float* depth_m, size_t n) {
   std::vector<uint16_t> units(n);
-  for (size_t i = 0; i < n; ++i) {
-    const float u = depth_m[i] / FramePyramid::kUploadMetresPerUnit;
-    units[i] = (u >= 0.5f && u < 65535.0f) ? static_cast<uint16_t>(std::lround(u)) : 0;
-  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const float u = depth_m[i] / FramePyramid::kUploadMetresPerUnit;
+      units[i] = (u >= 0.5f && u < 65535.0f) ? static_cast<uint16_t>(std::lround(u)) : 0;
+    }
+  });
   return units;
 }
 }  // namespace
