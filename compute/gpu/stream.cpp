@@ -261,8 +261,9 @@ void record_upload(Context& ctx, CommandList& cmd, const BufferPtr& dst, const v
   if (!staging || staging->size() < bytes)
     staging = Buffer::create(ctx, bytes, dst->name() + " staging", BufferUsage::Staging);
   std::memcpy(staging->mapped(), src, bytes);
+  cmd.barrier();  // after the list's earlier work on `dst`
   cmd.copy(staging, dst, bytes, 0, dst_offset);
-  cmd.barrier();
+  cmd.barrier();  // before its later work
 }
 
 const void* Stream::record_download(CommandList& cmd, const BufferPtr& src, size_t bytes, size_t src_offset) {
