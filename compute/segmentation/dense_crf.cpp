@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include "common/error.h"
@@ -110,17 +111,16 @@ void DenseCrf::set_permutohedral(std::span<const CrfNode> nodes) {
     fs[i * 2 + 0] = c.x / params.sigma_smoothness;
     fs[i * 2 + 1] = c.y / params.sigma_smoothness;
   }
-  appearance_.init(fa.data(), 6, node_count_);
-  smoothness_.init(fs.data(), 2, node_count_);
+  // Each kernel's lattice and normaliser, the two side by side.
   const std::vector<float> ones(un, 1.0f);
-  norm_appearance_.resize(un);
-  norm_smoothness_.resize(un);
-  appearance_.filter(ones.data(), norm_appearance_.data(), 1);
-  smoothness_.filter(ones.data(), norm_smoothness_.data(), 1);
-  for (size_t i = 0; i < un; ++i) {
-    norm_appearance_[i] = 1.0f / std::sqrt(norm_appearance_[i] + 1e-20f);
-    norm_smoothness_[i] = 1.0f / std::sqrt(norm_smoothness_[i] + 1e-20f);
-  }
+  const auto build = [&](PermutohedralLattice& lattice, const std::vector<float>& features, int d, std::vector<float>& norm) {
+    lattice.init(features.data(), d, node_count_);
+    norm.resize(un);
+    lattice.filter(ones.data(), norm.data(), 1);
+    for (float& v : norm) v = 1.0f / std::sqrt(v + 1e-20f);
+  };
+  tbb::parallel_invoke([&] { build(appearance_, fa, 6, norm_appearance_); },
+                       [&] { build(smoothness_, fs, 2, norm_smoothness_); });
 }
 
 // Exact: neighbours within the positional radius where the wider kernel falls to exact_cutoff,
@@ -274,20 +274,22 @@ void DenseCrf::message(std::span<const float> q, int label_count, std::span<floa
   if (label_count < 1 || q.size() != un * L || out.size() != un * L)
     throw Error("CRF: message buffers must hold node_count x label_count values");
   if (params_.method == CrfMethod::kPermutohedral) {
-    scaled_.resize(un * L);
-    filtered_.resize(un * L);
+    // The two kernels' filters run side by side, each on its own buffers.
+    const auto filter = [&](const PermutohedralLattice& lattice, const std::vector<float>& norm, std::vector<float>& scaled,
+                            std::vector<float>& filtered) {
+      scaled.resize(un * L);
+      filtered.resize(un * L);
+      for (size_t i = 0; i < un; ++i)
+        for (size_t l = 0; l < L; ++l) scaled[i * L + l] = norm[i] * q[i * L + l];
+      lattice.filter(scaled.data(), filtered.data(), label_count);
+    };
+    tbb::parallel_invoke([&] { filter(appearance_, norm_appearance_, scaled_, filtered_); },
+                         [&] { filter(smoothness_, norm_smoothness_, scaled_smoothness_, filtered_smoothness_); });
     for (size_t i = 0; i < un; ++i)
-      for (size_t l = 0; l < L; ++l) scaled_[i * L + l] = norm_appearance_[i] * q[i * L + l];
-    appearance_.filter(scaled_.data(), filtered_.data(), label_count);
-    for (size_t i = 0; i < un; ++i)
-      for (size_t l = 0; l < L; ++l)
+      for (size_t l = 0; l < L; ++l) {
         out[i * L + l] = params_.appearance_weight * norm_appearance_[i] * filtered_[i * L + l];
-    for (size_t i = 0; i < un; ++i)
-      for (size_t l = 0; l < L; ++l) scaled_[i * L + l] = norm_smoothness_[i] * q[i * L + l];
-    smoothness_.filter(scaled_.data(), filtered_.data(), label_count);
-    for (size_t i = 0; i < un; ++i)
-      for (size_t l = 0; l < L; ++l)
-        out[i * L + l] += params_.smoothness_weight * norm_smoothness_[i] * filtered_[i * L + l];
+        out[i * L + l] += params_.smoothness_weight * norm_smoothness_[i] * filtered_smoothness_[i * L + l];
+      }
     return;
   }
   // Exact: q copied with a row stride padded to a multiple of 4 so that one entry's update is one

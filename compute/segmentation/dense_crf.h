@@ -110,6 +110,7 @@ class DenseCrf {
   PermutohedralLattice appearance_, smoothness_;
   std::vector<float> norm_appearance_, norm_smoothness_;
   mutable std::vector<float> scaled_, filtered_, message_;
+  mutable std::vector<float> scaled_smoothness_, filtered_smoothness_;  // the lattice's second filter
   // Exact-kernel construction scratch, kept so that frames do not reallocate (page faults).
   struct ExactChunk {
     std::vector<int32_t> columns;

@@ -55,14 +55,16 @@ struct ChunkInfo {
 
 bool bad_cost_value(float v) { return !(v >= 0 && v <= std::numeric_limits<float>::max()); }
 
-// Per superpixel and model sums over the pixels of a chunk of rows (layout: kBaseSums, then per
-// model the pixels with depth and a cost and their cost sum). One run of a superpixel within a
-// row is summed locally, then added once.
+// Per superpixel sums over the pixels of a chunk of rows: with `base`, the kBaseSums (layout
+// above); else per model the pixels with depth and a cost and their cost sum. One run of a
+// superpixel within a row is summed locally, then added once.
 class ChunkSums {
  public:
-  ChunkSums(const Superpixels& sp, const uint8_t* rgb, const float* depth_m, std::span<const std::span<const float>> costs)
-      : sp_(sp), rgb_(rgb), depth_m_(depth_m), costs_(costs), stride_(kBaseSums + 2 * costs.size()),
-        run_(stride_), row_depth_(static_cast<size_t>(sp.width)), row_valid_(static_cast<size_t>(sp.width)) {}
+  ChunkSums(const Superpixels& sp, const uint8_t* rgb, const float* depth_m, std::span<const std::span<const float>> costs,
+            bool base)
+      : sp_(sp), rgb_(rgb), depth_m_(depth_m), costs_(costs), base_(base),
+        stride_(base ? size_t{kBaseSums} : 2 * costs.size()), run_(stride_), row_depth_(static_cast<size_t>(sp.width)),
+        row_valid_(static_cast<size_t>(sp.width)) {}
 
   ChunkInfo add_rows(double* acc, int64_t y0, int64_t y1) {
     const int w = sp_.width;
@@ -79,7 +81,10 @@ class ChunkSums {
         }
         const int xs = x;
         while (x < w && sp_.label[row + static_cast<size_t>(x)] == k) ++x;
-        sum_run(row, static_cast<int>(y), xs, x);
+        if (base_)
+          sum_run(row, static_cast<int>(y), xs, x);
+        else
+          for (size_t m = 0; m < costs_.size(); ++m) sum_costs(m, row, xs, x);
         double* acc_k = acc + static_cast<size_t>(k) * stride_;
         for (size_t j = 0; j < stride_; ++j) acc_k[j] += run_[j];
       }
@@ -122,7 +127,6 @@ class ChunkSums {
     run_[5] = sb;
     run_[6] = nd;
     run_[7] = sd;
-    for (size_t m = 0; m < costs_.size(); ++m) sum_costs(m, row, xs, xe);
   }
 
   // Costs count where the pixel has depth; NaN = no geometry.
@@ -144,14 +148,15 @@ class ChunkSums {
           info_.bad_cost = static_cast<int64_t>(row) + i;
           info_.bad_cost_model = static_cast<int>(m);
         }
-    run_[kBaseSums + 2 * m] = n_cost;
-    run_[kBaseSums + 2 * m + 1] = s_cost;
+    run_[2 * m] = n_cost;
+    run_[2 * m + 1] = s_cost;
   }
 
   const Superpixels& sp_;
   const uint8_t* rgb_;
   const float* depth_m_;
   std::span<const std::span<const float>> costs_;
+  const bool base_;
   const size_t stride_;
   std::vector<double> run_;
   std::vector<float> row_depth_;  // valid depth or 0
@@ -232,56 +237,65 @@ Superpixels MotionSegmenter::superpixels(const uint8_t* rgb, const float* depth_
   const auto t0 = std::chrono::steady_clock::now();
   Superpixels sp = slic_.compute(rgb, depth_m, width, height, params_.slic);
   last_slic_ms_ = detail::ms_since(t0);
+  sp.serial = ++last_serial_;
+  const auto t1 = std::chrono::steady_clock::now();
+  prepare_nodes(sp, rgb, depth_m);
+  last_prepare_ms_ = detail::ms_since(t1);
   return sp;
 }
 
+
+// The sums of `part` (base or costs) per superpixel over every pixel, added in fixed row chunks
+// in chunk order (deterministic); throws for a bad label or cost, else returns the depth range.
+std::vector<double> MotionSegmenter::chunk_sums(const Superpixels& sp, const uint8_t* rgb, const float* depth_m,
+                                                std::span<const std::span<const float>> costs, bool base,
+                                                float* depth_range_m) {
+  const int K = sp.count;
+  const size_t stride = base ? size_t{kBaseSums} : 2 * costs.size();
+  partial_.assign(static_cast<size_t>(kChunks) * static_cast<size_t>(K) * stride, 0.0);
+  std::vector<ChunkInfo> info(kChunks);
+  detail::for_fixed_chunks(sp.height, kChunks, [&](int chunk, int64_t y0, int64_t y1) {
+    double* acc = partial_.data() + static_cast<size_t>(chunk) * static_cast<size_t>(K) * stride;
+    info[static_cast<size_t>(chunk)] = ChunkSums(sp, rgb, depth_m, costs, base).add_rows(acc, y0, y1);
+  });
+  const float range_m = checked_depth_range_m(info, sp, costs);
+  if (depth_range_m) *depth_range_m = range_m;
+  return combine_chunks(partial_, K, stride);
+}
 
 const MotionSegmenter::Unaries& MotionSegmenter::compute_unaries(const Superpixels& sp, const uint8_t* rgb,
                                                                  const float* depth_m,
                                                                  std::span<const std::span<const float>> costs) {
   check_unary_inputs(sp, rgb, depth_m, costs, kMaxModels);
-  const int K = sp.count;
-  const size_t stride = kBaseSums + 2 * costs.size();
-  partial_.assign(static_cast<size_t>(kChunks) * static_cast<size_t>(K) * stride, 0.0);
-  std::vector<ChunkInfo> info(kChunks);
-  detail::for_fixed_chunks(sp.height, kChunks, [&](int chunk, int64_t y0, int64_t y1) {
-    double* acc = partial_.data() + static_cast<size_t>(chunk) * static_cast<size_t>(K) * stride;
-    info[static_cast<size_t>(chunk)] = ChunkSums(sp, rgb, depth_m, costs).add_rows(acc, y0, y1);
-  });
-  unaries_.depth_range_m = checked_depth_range_m(info, sp, costs);
-  const std::vector<double> sums = combine_chunks(partial_, K, stride);
+  if (sp.serial == 0 || sp.serial != prepared_serial_) prepare_nodes(sp, rgb, depth_m);
+  const std::vector<double> cost_sums =
+      costs.empty() ? std::vector<double>() : chunk_sums(sp, rgb, depth_m, costs, false, nullptr);
+  make_energies(cost_sums, static_cast<int>(costs.size()));
+  return unaries_;
+}
 
-  // Superpixels with depth become CRF nodes.
+// Each CRF node's position (in grid steps), colour and depth from the per-superpixel sums, and
+// the CRF's kernels over them.
+void MotionSegmenter::prepare_nodes(const Superpixels& sp, const uint8_t* rgb, const float* depth_m) {
+  check_unary_inputs(sp, rgb, depth_m, {}, kMaxModels);
   Unaries& u = unaries_;
+  base_sums_ = chunk_sums(sp, rgb, depth_m, {}, true, &u.depth_range_m);
+  const int K = sp.count;
+  // Superpixels with depth become CRF nodes.
   u.crf_node_of.assign(static_cast<size_t>(K), -1);
   u.crf_superpixel.clear();
   for (int32_t k = 0; k < K; ++k)
-    if (sums[static_cast<size_t>(k) * stride + 6] > 0) {
+    if (base_sums_[static_cast<size_t>(k) * kBaseSums + 6] > 0) {
       u.crf_node_of[static_cast<size_t>(k)] = static_cast<int32_t>(u.crf_superpixel.size());
       u.crf_superpixel.push_back(k);
     }
-  make_nodes(sp, sums, static_cast<int>(costs.size()));
-  return u;
-}
-
-// Each CRF node's position (in grid steps), colour and depth, and its label energies: the mean
-// cost of every model with geometry there (else its fixed cost), and the outlier label's energy,
-// which falls as the best model's rises.
-void MotionSegmenter::make_nodes(const Superpixels& sp, const std::vector<double>& sums, int M) {
-  Unaries& u = unaries_;
-  const auto& p = params_;
-  const size_t stride = kBaseSums + 2 * static_cast<size_t>(M);
-  const NoGeometryCosts fixed(p, u.depth_range_m);
-  const float step_x = sp.step_x_px > 0 ? sp.step_x_px : static_cast<float>(p.slic.superpixel_size_px);
-  const float step_y = sp.step_y_px > 0 ? sp.step_y_px : static_cast<float>(p.slic.superpixel_size_px);
-  const size_t L = static_cast<size_t>(M) + 1;
-  const size_t nodes = u.crf_superpixel.size();
-  u.nodes.resize(nodes);
-  u.energy.resize(nodes * L);
-  detail::for_range(static_cast<int64_t>(nodes), 256, [&](int64_t i0, int64_t i1) {
+  const float step_x = sp.step_x_px > 0 ? sp.step_x_px : static_cast<float>(params_.slic.superpixel_size_px);
+  const float step_y = sp.step_y_px > 0 ? sp.step_y_px : static_cast<float>(params_.slic.superpixel_size_px);
+  u.nodes.resize(u.crf_superpixel.size());
+  detail::for_range(static_cast<int64_t>(u.nodes.size()), 256, [&](int64_t i0, int64_t i1) {
     for (int64_t ii = i0; ii < i1; ++ii) {
       const auto i = static_cast<size_t>(ii);
-      const double* s = sums.data() + static_cast<size_t>(u.crf_superpixel[i]) * stride;
+      const double* s = base_sums_.data() + static_cast<size_t>(u.crf_superpixel[i]) * kBaseSums;
       CrfNode& node = u.nodes[i];
       node.x = static_cast<float>(s[1] / s[0]) / step_x;
       node.y = static_cast<float>(s[2] / s[0]) / step_y;
@@ -289,13 +303,34 @@ void MotionSegmenter::make_nodes(const Superpixels& sp, const std::vector<double
       node.g = static_cast<float>(s[4] / s[0]);
       node.b = static_cast<float>(s[5] / s[0]);
       node.depth_m = static_cast<float>(s[7] / s[6]);
+    }
+  });
+  crf_.set_nodes(u.nodes, params_.crf);
+  prepared_serial_ = sp.serial;
+}
+
+// Each node's label energies: the mean cost of every model with geometry there (else its fixed
+// cost), and the outlier label's energy, which falls as the best model's rises.
+void MotionSegmenter::make_energies(const std::vector<double>& cost_sums, int M) {
+  Unaries& u = unaries_;
+  const auto& p = params_;
+  const NoGeometryCosts fixed(p, u.depth_range_m);
+  const size_t L = static_cast<size_t>(M) + 1;
+  const size_t nodes = u.crf_superpixel.size();
+  u.energy.resize(nodes * L);
+  detail::for_range(static_cast<int64_t>(nodes), 256, [&](int64_t i0, int64_t i1) {
+    for (int64_t ii = i0; ii < i1; ++ii) {
+      const auto i = static_cast<size_t>(ii);
+      const auto k = static_cast<size_t>(u.crf_superpixel[i]);
+      const double with_depth = base_sums_[k * kBaseSums + 6];
+      const double* c = cost_sums.data() + k * 2 * static_cast<size_t>(M);
       float* e = u.energy.data() + i * L;
       bool any_geometry = false;
       float best = std::numeric_limits<float>::infinity();
       for (int m = 0; m < M; ++m) {
-        const double with_cost = s[kBaseSums + 2 * static_cast<size_t>(m)];
-        const bool has_geometry = with_cost > 0 && with_cost >= p.min_geometry_fraction * s[6];
-        const float cost_m = has_geometry ? static_cast<float>(s[kBaseSums + 2 * static_cast<size_t>(m) + 1] / with_cost)
+        const double with_cost = c[2 * static_cast<size_t>(m)];
+        const bool has_geometry = with_cost > 0 && with_cost >= p.min_geometry_fraction * with_depth;
+        const float cost_m = has_geometry ? static_cast<float>(c[2 * static_cast<size_t>(m) + 1] / with_cost)
                                           : (m == 0 ? fixed.background_m : fixed.object_m);
         e[m] = cost_m / p.cost_scale_m;
         if (has_geometry) {
@@ -312,6 +347,7 @@ SegmentationResult MotionSegmenter::segment(const Superpixels& sp, const uint8_t
                                             std::span<const std::span<const float>> costs) {
   SegmentationResult result;
   result.slic_ms = last_slic_ms_;
+  result.prepare_ms = sp.serial != 0 && sp.serial == prepared_serial_ ? last_prepare_ms_ : 0.0;
   auto t = std::chrono::steady_clock::now();
   const Unaries& u = compute_unaries(sp, rgb, depth_m, costs);
   result.unary_ms = detail::ms_since(t);
@@ -319,7 +355,6 @@ SegmentationResult MotionSegmenter::segment(const Superpixels& sp, const uint8_t
   t = std::chrono::steady_clock::now();
   const int M = static_cast<int>(costs.size());
   const int L = M + 1;
-  crf_.set_nodes(u.nodes, params_.crf);
   crf_.infer(u.energy, L, q_);
   const size_t nodes = u.nodes.size();
   node_label_.resize(nodes);

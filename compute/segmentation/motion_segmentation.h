@@ -81,8 +81,10 @@ struct SegmentationResult {
   int superpixel_count = 0;       // superpixels given to segment()
   int crf_node_count = 0;         // superpixels with valid depth (the CRF's nodes)
   float depth_range_m = 0;        // max - min valid depth of the frame
-  // Wall time of each step, milliseconds (slic_ms: of the last superpixels() call).
-  double slic_ms = 0, unary_ms = 0, crf_ms = 0, post_ms = 0;
+  // Wall time of each step, milliseconds. slic_ms and prepare_ms (the CRF's nodes and kernels)
+  // are of the superpixels() call that made the superpixels; where segment() prepared them itself,
+  // prepare_ms is 0 and that time is part of unary_ms.
+  double slic_ms = 0, prepare_ms = 0, unary_ms = 0, crf_ms = 0, post_ms = 0;
 
   uint8_t outlier_label() const { return static_cast<uint8_t>(model_count); }
 };
@@ -95,19 +97,22 @@ class MotionSegmenter {
 
   const MotionSegmentationParams& params() const { return params_; }
 
-  // Step 1 (needs only the frame). rgb: w*h*3 bytes RGB; depth_m: w*h metres, 0 or non-finite =
-  // no reading.
+  // Step 1 (needs only the frame): the superpixels, and for them the CRF's nodes (position, colour,
+  // depth) and kernels, kept for segment(). rgb: w*h*3 bytes RGB; depth_m: w*h metres, 0 or
+  // non-finite = no reading.
   Superpixels superpixels(const uint8_t* rgb, const float* depth_m, int width, int height);
 
-  // Steps 2-4. `sp` from superpixels() on the same frame (rgb, depth_m as there).
+  // Steps 2-4. `sp` from superpixels() on the same frame (rgb, depth_m as there, unchanged since);
+  // superpixels made elsewhere (serial 0) or by an earlier call get their nodes here.
   // costs[m]: per-pixel ICP alignment cost of model m after tracking (metres, >= 0; NaN = model m
   // has no geometry at this pixel), w*h values each; costs.size() <= kMaxModels.
   SegmentationResult segment(const Superpixels& sp, const uint8_t* rgb, const float* depth_m,
                              std::span<const std::span<const float>> costs);
 
   // --- Building blocks, public for tests. ---
-  // Per superpixel features and mean costs (unary step). Node i of the CRF is superpixel
-  // crf_superpixel[i]; superpixels without valid depth are not nodes (crf_node_of = -1).
+  // Per superpixel features and mean costs (unary step; the features and the CRF's kernels come
+  // from superpixels() where it made `sp`). Node i of the CRF is superpixel crf_superpixel[i];
+  // superpixels without valid depth are not nodes (crf_node_of = -1).
   struct Unaries {
     std::vector<CrfNode> nodes;
     std::vector<int32_t> crf_superpixel;  // node -> superpixel
@@ -124,18 +129,26 @@ class MotionSegmenter {
                    SegmentationResult& result);
 
  private:
-  // unaries_'s nodes and energies from the per-superpixel sums of compute_unaries (M models).
-  void make_nodes(const Superpixels& sp, const std::vector<double>& sums, int M);
+  // What needs only the frame: per superpixel sums (base_sums_), the depth range, the CRF's nodes
+  // and its kernels (crf_.set_nodes). Marks `sp` as prepared.
+  void prepare_nodes(const Superpixels& sp, const uint8_t* rgb, const float* depth_m);
+  // Per superpixel sums over the frame in fixed row chunks: the base sums, or the costs' sums
+  // (also the depth range where asked). Throws for a bad superpixel label or cost.
+  std::vector<double> chunk_sums(const Superpixels& sp, const uint8_t* rgb, const float* depth_m,
+                                 std::span<const std::span<const float>> costs, bool base, float* depth_range_m);
+  // unaries_'s energies from the per-superpixel cost sums (M models).
+  void make_energies(const std::vector<double>& cost_sums, int M);
 
   MotionSegmentationParams params_;
   Slic slic_;
   DenseCrf crf_;
   Unaries unaries_;
-  std::vector<double> partial_;
+  std::vector<double> partial_, base_sums_;  // base_sums_: kBaseSums per superpixel of prepared_serial_
+  uint64_t last_serial_ = 0, prepared_serial_ = 0;
   std::vector<float> q_;
   std::vector<uint8_t> node_label_;
   ComponentLabelling components_;
-  double last_slic_ms_ = 0;
+  double last_slic_ms_ = 0, last_prepare_ms_ = 0;
 };
 
 }  // namespace cofusion::segmentation

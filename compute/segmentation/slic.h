@@ -43,6 +43,9 @@ struct Superpixels {
   // The grid step actually used, pixels (x and y; close to superpixel_size_px), so that
   // positions can be expressed in grid units (the CRF's position scale).
   float step_x_px = 0, step_y_px = 0;
+  // Which MotionSegmenter::superpixels() call made these (0: made elsewhere). segment() reuses the
+  // CRF nodes that call prepared from the same frame.
+  uint64_t serial = 0;
 };
 
 // Scratch buffers kept between frames; one thread at a time (uses TBB inside).

@@ -899,6 +899,7 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
   std::vector<std::span<const float>> views(costs.begin(), costs.end());
   segmentation::SegmentationResult seg = segmenter_.segment(superpixels, rgb, depth_m, views);
   mark_excluded(excluded, segmentation::kNoLabel, seg.labels);
+  out.crf_nodes_ms = seg.prepare_ms;
   out.segment_parts_ms.emplace_back("unaries", seg.unary_ms);
   out.segment_parts_ms.emplace_back("CRF", seg.crf_ms);
   out.segment_parts_ms.emplace_back("components", seg.post_ms);

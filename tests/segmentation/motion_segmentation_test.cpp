@@ -288,6 +288,32 @@ TEST(MotionSegmentation, IsDeterministicWhateverTheThreadCount) {
   EXPECT_TRUE(a == c);
 }
 
+// superpixels() prepares the CRF's nodes for its own superpixels; segment() reuses them only for
+// those: other superpixels (made elsewhere, or by an earlier call) get theirs anew.
+TEST(MotionSegmentation, NodesPreparedWithTheSuperpixelsAreUsedOnlyForThem) {
+  const SyntheticSegmentationFrame a = make_synthetic_segmentation_frame(320, 240, 3, 5);
+  const SyntheticSegmentationFrame b = make_synthetic_segmentation_frame(320, 240, 3, 9);
+  const auto labels_from_scratch = [](const SyntheticSegmentationFrame& f, Superpixels sp) {
+    sp.serial = 0;  // as if made elsewhere: the nodes are built inside segment()
+    MotionSegmenter fresh{MotionSegmentationParams{}};
+    return fresh.segment(sp, f.rgb.data(), f.depth_m.data(), spans(f.costs)).labels;
+  };
+  MotionSegmenter seg{MotionSegmentationParams{}};
+  const Superpixels sp_a = seg.superpixels(a.rgb.data(), a.depth_m.data(), a.width, a.height);
+  ASSERT_NE(sp_a.serial, 0u);
+  const std::vector<uint8_t> prepared_a = seg.segment(sp_a, a.rgb.data(), a.depth_m.data(), spans(a.costs)).labels;
+  EXPECT_TRUE(prepared_a == labels_from_scratch(a, sp_a));
+
+  // b's superpixels are prepared now; a's (an earlier call) are built again, and b's after that.
+  const Superpixels sp_b = seg.superpixels(b.rgb.data(), b.depth_m.data(), b.width, b.height);
+  EXPECT_NE(sp_b.serial, sp_a.serial);
+  const std::vector<uint8_t> again_a = seg.segment(sp_a, a.rgb.data(), a.depth_m.data(), spans(a.costs)).labels;
+  EXPECT_TRUE(again_a == prepared_a);
+  const std::vector<uint8_t> labels_b = seg.segment(sp_b, b.rgb.data(), b.depth_m.data(), spans(b.costs)).labels;
+  EXPECT_TRUE(labels_b == labels_from_scratch(b, sp_b));
+  EXPECT_FALSE(labels_b == prepared_a);
+}
+
 TEST(MotionSegmentation, RejectsBadInput) {
   QuadFrame f;
   MotionSegmenter seg{MotionSegmentationParams{}};
