@@ -574,11 +574,17 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
     label_all_background(depth_m, excluded);
   }
   stage("segment");
+  // What the frame leaves that needs no fused model, on a CPU job while the models fuse.
+  tbb::task_group keep_job;
+  keep_job.run([&] {
+    keep_frame(camera, encoding, depth_m, rgb, segmenting && camera != CameraState::kLost ? &*superpixels : nullptr,
+               excluded, out);
+  });
   fuse_models(spawned_slots);
   stage("fuse");
-  finish_frame(camera, encoding, depth_m, rgb, out);
-  if (segmenting && camera != CameraState::kLost)
-    segmentation::label_depthless_pixels(out.labels, *superpixels, depth_m, uint16_t{0xFFFF}, excluded);
+  keep_job.wait();
+  finish_frame(camera, out);
+  stage("finish");
   return out;
 }
 
@@ -940,14 +946,52 @@ void CoFusion::fuse_models(const std::vector<int>& spawned_slots) {
   });
 }
 
-// Bookkeeping and the report: trajectories, model statuses, the output labels, keyframes and the
-// recent tracking quality that relocalisation is judged by.
-void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, const float* depth_m,
-                            const uint8_t* rgb, CoFusionFrame& out) {
-  for (auto& m : models_) report_cull(*m, out);
+// What this frame leaves that needs no fused model (so it runs beside the fusion): the output
+// labels (with `superpixels`, pixels without depth take their superpixel's model), the keyframes,
+// and the previous frame's depth and grey levels for the next frame.
+void CoFusion::keep_frame(CameraState camera, const FrameEncoding& encoding, const float* depth_m, const uint8_t* rgb,
+                          const segmentation::Superpixels* superpixels, const std::vector<uint8_t>& excluded,
+                          CoFusionFrame& out) {
   std::vector<uint16_t> slot_to_id(kSlots, 0xFFFF);
+  for (const Model* m : live_models()) slot_to_id[m->slot] = static_cast<uint16_t>(m->id);
+  const size_t n = slots_.size();
+  out.labels.assign(n, 0xFFFF);
+  if (camera != CameraState::kLost)
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i < r.end(); ++i)
+        out.labels[i] = slots_[i] < kMoverSlot ? slot_to_id[slots_[i]] : uint16_t{0xFFFF};
+    });
+  if (superpixels) segmentation::label_depthless_pixels(out.labels, *superpixels, depth_m, uint16_t{0xFFFF}, excluded);
+  // A keyframe's features are stored as world points, so only what stands still gives them: the
+  // background's pixels and those of resting models. A person or a moving object would be matched
+  // where it no longer is.
+  if (camera == CameraState::kTracking) {
+    std::array<bool, kSlots> still{};
+    for (const auto& m : models_)
+      if (m->slot >= 0 && m->slot < kSlots && (m->id == 0 || m->resting)) still[size_t(m->slot)] = true;
+    const auto still_features = [&] {
+      const std::vector<float> depth =
+          depth_where(depth_m, slots_.size(), [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; });
+      return keyframes_.features(rgb, depth.data(), intrinsics_);
+    };
+    keyframes_.add_if_novel(encoding, still_features, T_world_camera_);
+  }
+  if (params_.camera_check.enabled || params_.lifecycle.spawn_rigidity.enabled) {
+    previous_depth_m_.assign(depth_m, depth_m + n);
+  }
+  if (params_.motion_segmentation && params_.lifecycle.slide_min_shift_px > 0 && rgb) {  // LifecycleParams::slide_*
+    previous_intensity_.resize(n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i < r.end(); ++i) previous_intensity_[i] = grey_level(rgb, i);
+    });
+  }
+}
+
+// Bookkeeping and the report after fusion: trajectories, model statuses, the recent tracking
+// quality that relocalisation is judged by, the camera's history.
+void CoFusion::finish_frame(CameraState camera, CoFusionFrame& out) {
+  for (auto& m : models_) report_cull(*m, out);
   for (Model* m : live_models()) {
-    slot_to_id[m->slot] = static_cast<uint16_t>(m->id);
     m->trajectory.emplace_back(frame_, m->surfels.T_world_model);
     // A failed tracking leaves a guessed pose (an object that left the view): not reported.
     if (!(m->tracked && m->tracking.failed)) m->seen_trajectory.emplace_back(frame_, m->surfels.T_world_model);
@@ -963,37 +1007,10 @@ void CoFusion::finish_frame(CameraState camera, const FrameEncoding& encoding, c
     s.tracking = m->tracking;
     out.active.push_back(s);
   }
-  const size_t n = slots_.size();
-  out.labels.assign(n, 0xFFFF);
-  if (camera != CameraState::kLost)
-    for (size_t i = 0; i < n; ++i) out.labels[i] = slots_[i] < kMoverSlot ? slot_to_id[slots_[i]] : uint16_t{0xFFFF};
-  // A keyframe's features are stored as world points, so only what stands still gives them: the
-  // background's pixels and those of resting models. A person or a moving object would be matched
-  // where it no longer is.
-  if (camera == CameraState::kTracking) {
-    std::array<bool, kSlots> still{};
-    for (const auto& m : models_)
-      if (m->slot >= 0 && m->slot < kSlots && (m->id == 0 || m->resting)) still[size_t(m->slot)] = true;
-    const auto still_features = [&] {
-      const std::vector<float> depth =
-          depth_where(depth_m, slots_.size(), [&](size_t i) { return slots_[i] < kSlots && still[slots_[i]]; });
-      return keyframes_.features(rgb, depth.data(), intrinsics_);
-    };
-    keyframes_.add_if_novel(encoding, still_features, T_world_camera_);
-  }
   const Model& bg = *models_.front();
   if (camera == CameraState::kTracking && frame_ > 0) {
     recent_tracking_.emplace_back(bg.tracking.inlier_ratio, bg.tracking.icp_rms_m);
     if (int(recent_tracking_.size()) > params_.relocalisation.recent_frames) recent_tracking_.erase(recent_tracking_.begin());
-  }
-  if (params_.camera_check.enabled || params_.lifecycle.spawn_rigidity.enabled) {
-    previous_depth_m_.assign(depth_m, depth_m + n);
-  }
-  if (params_.motion_segmentation && params_.lifecycle.slide_min_shift_px > 0 && rgb) {  // LifecycleParams::slide_*
-    previous_intensity_.resize(n);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t i = r.begin(); i < r.end(); ++i) previous_intensity_[i] = grey_level(rgb, i);
-    });
   }
   camera_history_.push_back(camera == CameraState::kLost ? std::nullopt : std::optional(T_world_camera_));
   if (camera_history_.size() > kCameraHistoryFrames) camera_history_.pop_front();

@@ -444,8 +444,9 @@ class CoFusion {
                std::vector<int>& spawned_slots);
   void label_all_background(const float* depth_m, const std::vector<uint8_t>& excluded);
   void fuse_models(const std::vector<int>& spawned_slots);
-  void finish_frame(CameraState camera, const FrameEncoding& encoding, const float* depth_m, const uint8_t* rgb,
-                    CoFusionFrame& out);
+  void keep_frame(CameraState camera, const FrameEncoding& encoding, const float* depth_m, const uint8_t* rgb,
+                  const segmentation::Superpixels* superpixels, const std::vector<uint8_t>& excluded, CoFusionFrame& out);
+  void finish_frame(CameraState camera, CoFusionFrame& out);
   // The model lifecycle (lifecycle.cpp).
   std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,
                                        const std::vector<std::vector<float>>& costs, const float* depth_m,
