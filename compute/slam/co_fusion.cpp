@@ -495,6 +495,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
   frame_rgb_ = rgb;
   frame_excluded_ = &excluded;
+  previous_samples_.reset();
   // The keyframes' pose of the camera, where the camera check will pull towards it: on a CPU job
   // while the GPU preprocesses and tracks.
   tbb::task_group keyframe_pose_job;
@@ -706,6 +707,13 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active, const floa
     return CameraState::kLost;
   }
   const Eigen::Isometry3d camera_motion = bg.motion;
+  // The previous frame's image where the camera's motion puts this frame's pixels (spawn
+  // evidence), on a CPU job while the GPU tests rest and computes the residuals.
+  tbb::task_group sampling;
+  if (can_sample_previous()) {
+    const Eigen::Isometry3d T_previous_current = camera_history_.back()->inverse() * camera_pose_after(bg.motion);
+    sampling.run([this, depth_m, T_previous_current] { previous_samples_ = sample_previous(depth_m, T_previous_current); });
+  }
   for (Model* m : active)
     if (m->resting) {  // stays where it is in the world; fuses when the background does
       m->tracked = true;
@@ -714,6 +722,7 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active, const floa
       m->motion_refused = bg.motion_refused;
     }
   settle_models(active, camera_motion);
+  sampling.wait();
   return refusal.empty() ? CameraState::kTracking : CameraState::kRefused;
 }
 
@@ -873,12 +882,17 @@ bool CoFusion::tracked_poses_agree(const Model& bg, const float* depth_m, const 
   return p.agreeing_frames > 0 && agreeing_refusals_ >= p.agreeing_frames;
 }
 
+// The camera's pose after this frame's motion (the background's).
+Eigen::Isometry3d CoFusion::camera_pose_after(const Eigen::Isometry3d& camera_motion) const {
+  return orthonormalised(T_world_camera_ * camera_motion);
+}
+
 // Poses: the background's motion is the camera's; every other model's follows from its own.
 void CoFusion::update_poses(const std::vector<Model*>& active, CoFusionFrame& out) {
   const Model& bg = *active.front();
   const Eigen::Isometry3d T_world_camera_prev = T_world_camera_;
   if (frame_ > 0) {
-    T_world_camera_ = orthonormalised(T_world_camera_prev * bg.motion);
+    T_world_camera_ = camera_pose_after(bg.motion);
     out.camera_tracking = bg.tracking;
     for (Model* m : active)
       if (m->id != 0)
@@ -913,7 +927,7 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
   // Two independent pieces of evidence for spawns, side by side.
   tbb::parallel_invoke(
       [&] { rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size())); },
-      [&] { changed_ = changed_since_previous(superpixels, depth_m, rgb, seg.labels); });
+      [&] { changed_ = changed_since_previous(superpixels, rgb, seg.labels); });
   part("rising cost and previous frame");
   slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);

@@ -438,6 +438,7 @@ class CoFusion {
   std::vector<float> depth_outside_excluded(const float* depth_m) const;
   std::optional<KeyframePose> keyframe_camera_pose(const float* depth_m) const;
   std::string take_keyframe_pose(Model& bg, const CameraFits& f, const Eigen::Isometry3d& T_world_features);
+  Eigen::Isometry3d camera_pose_after(const Eigen::Isometry3d& camera_motion) const;
   void update_poses(const std::vector<Model*>& active, CoFusionFrame& out);
   void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
                const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
@@ -473,11 +474,14 @@ class CoFusion {
                                          uint8_t outlier);
   struct PreviousSamples {
     std::vector<float> intensity, gradient;  // per pixel; intensity -1 = not seen there
-    float gain = 1;                          // previous / current exposure
   };
-  PreviousSamples sample_previous(const float* depth_m, const uint8_t* rgb, const std::vector<uint8_t>& labels) const;
-  std::vector<uint8_t> changed_since_previous(const segmentation::Superpixels& superpixels, const float* depth_m,
-                                              const uint8_t* rgb, const std::vector<uint8_t>& labels) const;
+  // Whether this frame's camera motion can be checked against the previous frame's image
+  // (LifecycleParams::slide_*): there is one, and it was tracked.
+  bool can_sample_previous() const;
+  PreviousSamples sample_previous(const float* depth_m, const Eigen::Isometry3d& T_previous_current) const;
+  float exposure_gain(const PreviousSamples& s, const uint8_t* rgb, const std::vector<uint8_t>& labels) const;
+  std::vector<uint8_t> changed_since_previous(const segmentation::Superpixels& superpixels, const uint8_t* rgb,
+                                              const std::vector<uint8_t>& labels) const;
   std::vector<uint8_t> rising_regions(const std::vector<uint8_t>& raised,
                                       const std::array<const std::vector<float>*, 3>& costs,
                                       const std::vector<uint8_t>& labels);
@@ -560,6 +564,7 @@ class CoFusion {
   std::deque<std::pair<int, std::vector<float>>> background_cost_history_;
   std::vector<uint8_t> rising_;
   std::vector<uint8_t> changed_;  // this frame's changed pixels (LifecycleParams::slide_*; empty = none)
+  std::optional<PreviousSamples> previous_samples_;
   std::vector<float> previous_intensity_;  // the previous frame's grey levels in [0, 1]
   segmentation::ComponentLabelling rising_components_;
   segmentation::ComponentLabelling components_;  // scratch of the outlier-region search

@@ -280,24 +280,28 @@ std::vector<uint8_t> CoFusion::rising_regions(const std::vector<uint8_t>& raised
   return rising;
 }
 
+bool CoFusion::can_sample_previous() const {
+  const size_t n = size_t(intrinsics_.width) * size_t(intrinsics_.height);
+  return params_.motion_segmentation && params_.lifecycle.slide_min_shift_px > 0 && previous_intensity_.size() == n &&
+         previous_depth_m_.size() == n && !camera_history_.empty() && camera_history_.back();
+}
+
 // The previous frame's grey level (bilinear) and gradient (the larger central difference, per
-// pixel) where the camera's motion puts each background pixel of this frame, if the previous frame
-// saw a surface at that depth there (else -1); and the frames' exposure ratio over those pixels.
-CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const uint8_t* rgb,
-                                                    const std::vector<uint8_t>& labels) const {
+// pixel) where the camera's motion puts each pixel of this frame, if the previous frame saw a
+// surface at that depth there (else -1). Needs only the camera's motion, not the segmentation.
+CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const Eigen::Isometry3d& T_previous_current_d) const {
   const int w = intrinsics_.width, h = intrinsics_.height;
-  const Eigen::Isometry3f T_previous_current = (camera_history_.back()->inverse() * T_world_camera_).cast<float>();
+  const Eigen::Isometry3f T_previous_current = T_previous_current_d.cast<float>();
   const float* prev = previous_intensity_.data();
   PreviousSamples s;
   s.intensity.assign(size_t(w) * size_t(h), -1.0f);
   s.gradient.assign(s.intensity.size(), 0.0f);
-  std::vector<double> sum_previous(size_t(h), 0.0), sum_current(size_t(h), 0.0);  // per row: deterministic
   tbb::parallel_for(tbb::blocked_range<int>(1, h - 1, 16), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < w; ++x) {
         const size_t i = size_t(y) * size_t(w) + size_t(x);
         const float z = depth_m[i];
-        if (labels[i] != 0 || !(z > 0.0f)) continue;
+        if (!(z > 0.0f)) continue;
         const Eigen::Vector3f p_current((float(x) - float(intrinsics_.cx)) / float(intrinsics_.fx) * z,
                                         (float(y) - float(intrinsics_.cy)) / float(intrinsics_.fy) * z, z);
         const Eigen::Vector3f q = T_previous_current * p_current;
@@ -313,36 +317,49 @@ CoFusion::PreviousSamples CoFusion::sample_previous(const float* depth_m, const 
         s.intensity[i] = (1 - a) * (1 - b) * prev[j] + a * (1 - b) * prev[j + 1] + (1 - a) * b * prev[j + row] +
                          a * b * prev[j + row + 1];
         s.gradient[i] = 0.5f * std::max(std::abs(prev[j + 1] - prev[j - 1]), std::abs(prev[j + row] - prev[j - row]));
-        sum_previous[size_t(y)] += s.intensity[i];
-        sum_current[size_t(y)] += grey_level(rgb, i);
       }
+  });
+  return s;
+}
+
+// The frames' exposure ratio (previous / current) over the background pixels (label 0) sampled.
+float CoFusion::exposure_gain(const PreviousSamples& s, const uint8_t* rgb, const std::vector<uint8_t>& labels) const {
+  const int w = intrinsics_.width, h = intrinsics_.height;
+  std::vector<double> sum_previous(size_t(h), 0.0), sum_current(size_t(h), 0.0);  // per row: deterministic
+  tbb::parallel_for(tbb::blocked_range<int>(1, h - 1, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (size_t i = size_t(y) * size_t(w); i < size_t(y + 1) * size_t(w); ++i)
+        if (labels[i] == 0 && s.intensity[i] >= 0.0f) {
+          sum_previous[size_t(y)] += s.intensity[i];
+          sum_current[size_t(y)] += grey_level(rgb, i);
+        }
   });
   double previous = 0, current = 0;
   for (int y = 0; y < h; ++y) previous += sum_previous[size_t(y)], current += sum_current[size_t(y)];
-  s.gain = current > 0 ? float(previous / current) : 1.0f;
-  return s;
+  return current > 0 ? float(previous / current) : 1.0f;
 }
 
 // LifecycleParams::slide_*: per pixel 1 for the background pixels of superpixels whose image
 // changed since the previous frame more than the camera's motion explains, else 0; empty when
 // there is none (or no previous frame, or the camera is not steady enough for a spawn).
+// previous_samples_: this frame's sample_previous, taken while the GPU computed the residuals.
 std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superpixels& superpixels,
-                                                      const float* depth_m, const uint8_t* rgb,
-                                                      const std::vector<uint8_t>& labels) const {
+                                                      const uint8_t* rgb, const std::vector<uint8_t>& labels) const {
   const LifecycleParams& p = params_.lifecycle;
   const size_t n = labels.size();
   std::vector<uint8_t> changed;
-  if (p.slide_min_shift_px <= 0 || superpixels.label.size() != n || previous_intensity_.size() != n ||
-      previous_depth_m_.size() != n || camera_history_.empty() || !camera_history_.back() ||
+  if (!previous_samples_ || previous_samples_->intensity.size() != n || superpixels.label.size() != n ||
       !spawn_camera_steady(*models_.front()))
     return changed;
-  const PreviousSamples s = sample_previous(depth_m, rgb, labels);
-  // Per pixel: 0 untested, 1 tested, 2 tested and different (in parallel); then per superpixel.
+  const PreviousSamples& s = *previous_samples_;
+  const float gain = exposure_gain(s, rgb, labels);
+  // Per background pixel: 0 untested, 1 tested, 2 tested and different (in parallel); then per
+  // superpixel.
   std::vector<uint8_t> verdict(n, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i < r.end(); ++i) {
-      if (s.intensity[i] < 0.0f) continue;
-      const float d = std::abs(s.gain * grey_level(rgb, i) - s.intensity[i]);
+      if (labels[i] != 0 || s.intensity[i] < 0.0f) continue;
+      const float d = std::abs(gain * grey_level(rgb, i) - s.intensity[i]);
       verdict[i] = 1 + uint8_t(d > p.slide_min_intensity && d > float(p.slide_min_shift_px) * s.gradient[i]);
     }
   });
