@@ -161,7 +161,9 @@ int CoFusion::free_slot(uint32_t taken) const {
 
 void CoFusion::upload_labels(const std::vector<uint8_t>& slots) {
   std::vector<uint32_t> wide(slots.size());
-  for (size_t i = 0; i < slots.size(); ++i) wide[i] = slots[i] == kNoSlot ? 0xFFFFFFFFu : slots[i];
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, slots.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) wide[i] = slots[i] == kNoSlot ? 0xFFFFFFFFu : slots[i];
+  });
   main_stream_.upload(labels_, wide.data(), wide.size() * sizeof(uint32_t));
 }
 

@@ -82,18 +82,31 @@ std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::Segme
   const uint8_t outlier = static_cast<uint8_t>(order.size());
   std::vector<uint8_t> slots(n, kNoSlot);
   const float max_cost = params_.costs.max_explained_cost_m;
-  // Per model: pixels the segmentation gave it, and of those the ones its motion explains.
-  std::vector<int> labelled(order.size(), 0), explained(order.size(), 0);
-  for (size_t i = 0; i < n; ++i) {
-    const uint8_t l = seg.labels[i];
-    if (l < outlier) ++labelled[l];
-    if (l < outlier && !(costs[l][i] > max_cost)) {
-      slots[i] = static_cast<uint8_t>(order[l]->slot);
-      ++explained[l];
-    } else if (l == outlier || (l == segmentation::kNoLabel && depth_m[i] > 0.0f)) {
-      slots[i] = kUnclaimedSlot;
+  // Per model: pixels the segmentation gave it, and of those the ones its motion explains (counts
+  // per block of rows in parallel, then added).
+  constexpr size_t kRows = 32;
+  const size_t width = size_t(intrinsics_.width), blocks = (size_t(intrinsics_.height) + kRows - 1) / kRows;
+  std::vector<int> block_counts(blocks * 2 * order.size(), 0);
+  tbb::parallel_for(size_t{0}, blocks, [&](size_t b) {
+    int* labelled = block_counts.data() + b * 2 * order.size();
+    int* explained = labelled + order.size();
+    for (size_t i = b * kRows * width; i < std::min(n, (b + 1) * kRows * width); ++i) {
+      const uint8_t l = seg.labels[i];
+      if (l < outlier) ++labelled[l];
+      if (l < outlier && !(costs[l][i] > max_cost)) {
+        slots[i] = static_cast<uint8_t>(order[l]->slot);
+        ++explained[l];
+      } else if (l == outlier || (l == segmentation::kNoLabel && depth_m[i] > 0.0f)) {
+        slots[i] = kUnclaimedSlot;
+      }
     }
-  }
+  });
+  std::vector<int> labelled(order.size(), 0), explained(order.size(), 0);
+  for (size_t b = 0; b < blocks; ++b)
+    for (size_t k = 0; k < order.size(); ++k) {
+      labelled[k] += block_counts[b * 2 * order.size() + k];
+      explained[k] += block_counts[b * 2 * order.size() + order.size() + k];
+    }
   drop_nonrigid(order, seg.labels, labelled, explained, slots, out);
   return slots;
 }
