@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include <tbb/task_arena.h>
+
 #include "common/error.h"
 #include "segmentation/parallel.h"
 
@@ -203,18 +205,32 @@ void PermutohedralLattice::init(const float* features, int d, int n) {
 }
 
 void PermutohedralLattice::filter(const float* in, float* out, int v) const {
+  if (v < 1) return;
+  // Channels are filtered independently (the same operations in the same order per channel), so
+  // splitting them into groups that run side by side gives bit-identical output for any split.
+  // Each group walks the whole lattice, so groups pay only where threads are plentiful: one per
+  // two job-system threads (the CRF runs its two kernels' filters side by side), none on two.
+  const int groups = std::clamp(tbb::this_task_arena::max_concurrency() / 2, 1, v);
+  if (group_scratch_.size() < static_cast<size_t>(groups)) group_scratch_.resize(static_cast<size_t>(groups));
+  detail::for_fixed_chunks(v, groups, [&](int g, int64_t c0, int64_t c1) {
+    filter_channels(in, out, v, static_cast<int>(c0), static_cast<int>(c1), group_scratch_[static_cast<size_t>(g)]);
+  });
+}
+
+void PermutohedralLattice::filter_channels(const float* in, float* out, int v, int c0, int c1, Scratch& s) const {
   const int d1 = d_ + 1;
-  const auto vs = static_cast<size_t>(v);
+  const auto stride = static_cast<size_t>(v);
+  const auto vs = static_cast<size_t>(c1 - c0);  // channels of this group, stored compactly
   // One extra zero vertex at the end stands for absent neighbours.
-  values_.assign((static_cast<size_t>(vertex_count_) + 1) * vs, 0.0f);
-  scratch_.assign(values_.size(), 0.0f);
+  s.values.assign((static_cast<size_t>(vertex_count_) + 1) * vs, 0.0f);
+  s.blurred.assign(s.values.size(), 0.0f);
   // Splat (sequential: vertices are shared between points).
   for (int p = 0; p < n_; ++p) {
-    const float* x = in + static_cast<size_t>(p) * vs;
+    const float* x = in + static_cast<size_t>(p) * stride + static_cast<size_t>(c0);
     for (int r = 0; r < d1; ++r) {
       const size_t o = static_cast<size_t>(p) * d1 + static_cast<size_t>(r);
       const float w = barycentric_[o];
-      float* dst = values_.data() + static_cast<size_t>(offset_[o]) * vs;
+      float* dst = s.values.data() + static_cast<size_t>(offset_[o]) * vs;
       for (size_t c = 0; c < vs; ++c) dst[c] += w * x[c];
     }
   }
@@ -225,25 +241,25 @@ void PermutohedralLattice::filter(const float* in, float* out, int v) const {
     detail::for_range(vertex_count_, grain, [&](int64_t v0, int64_t v1) {
       for (int64_t vi = v0; vi < v1; ++vi) {
         const size_t base = (static_cast<size_t>(vi) * d1 + static_cast<size_t>(j)) * 2;
-        const float* a = values_.data() + static_cast<size_t>(neighbour_[base]) * vs;
-        const float* b = values_.data() + static_cast<size_t>(neighbour_[base + 1]) * vs;
-        const float* self = values_.data() + static_cast<size_t>(vi) * vs;
-        float* dst = scratch_.data() + static_cast<size_t>(vi) * vs;
+        const float* a = s.values.data() + static_cast<size_t>(neighbour_[base]) * vs;
+        const float* b = s.values.data() + static_cast<size_t>(neighbour_[base + 1]) * vs;
+        const float* self = s.values.data() + static_cast<size_t>(vi) * vs;
+        float* dst = s.blurred.data() + static_cast<size_t>(vi) * vs;
         for (size_t c = 0; c < vs; ++c) dst[c] = self[c] + 0.5f * (a[c] + b[c]);
       }
     });
-    values_.swap(scratch_);
+    s.values.swap(s.blurred);
   }
   // Slice; alpha compensates the blur's gain (Krähenbühl & Koltun's 1 / (1 + 2^-d)).
   const float alpha = 1.0f / (1.0f + std::pow(2.0f, -static_cast<float>(d_)));
   detail::for_range(n_, std::max<int64_t>(1024, 65536 / static_cast<int64_t>(vs * static_cast<size_t>(d1))), [&](int64_t p0, int64_t p1) {
     for (int64_t p = p0; p < p1; ++p) {
-      float* y = out + static_cast<size_t>(p) * vs;
+      float* y = out + static_cast<size_t>(p) * stride + static_cast<size_t>(c0);
       for (size_t c = 0; c < vs; ++c) y[c] = 0.0f;
       for (int r = 0; r < d1; ++r) {
         const size_t o = static_cast<size_t>(p) * d1 + static_cast<size_t>(r);
         const float w = barycentric_[o] * alpha;
-        const float* src = values_.data() + static_cast<size_t>(offset_[o]) * vs;
+        const float* src = s.values.data() + static_cast<size_t>(offset_[o]) * vs;
         for (size_t c = 0; c < vs; ++c) y[c] += w * src[c];
       }
     }

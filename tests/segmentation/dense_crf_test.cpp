@@ -114,6 +114,33 @@ TEST(PermutohedralLattice, NormalisedFilteringMatchesGaussianAverages) {
   }
 }
 
+// The channels are filtered in groups where threads are plentiful: the output must not depend on
+// the grouping (nor on the thread count), and equals filtering each channel on its own.
+TEST(PermutohedralLattice, FilteringIsTheSameForAnyChannelGrouping) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 4.0f);
+  const int n = 500, d = 6, v = 7;
+  std::vector<float> f(static_cast<size_t>(n) * d), in(static_cast<size_t>(n) * v);
+  for (auto& x : f) x = u(rng);
+  for (auto& x : in) x = u(rng) - 2.0f;
+  PermutohedralLattice lattice;
+  lattice.init(f.data(), d, n);
+  const auto filtered = [&](int threads) {
+    std::vector<float> out(in.size());
+    tbb::task_arena(threads).execute([&] { lattice.filter(in.data(), out.data(), v); });
+    return out;
+  };
+  const std::vector<float> one = filtered(1);
+  for (const int threads : {2, 4, 6, 16}) EXPECT_EQ(filtered(threads), one) << threads << " threads";
+  std::vector<float> channel_in(static_cast<size_t>(n)), channel_out(static_cast<size_t>(n));
+  for (int c = 0; c < v; ++c) {
+    for (int i = 0; i < n; ++i) channel_in[static_cast<size_t>(i)] = in[static_cast<size_t>(i * v + c)];
+    lattice.filter(channel_in.data(), channel_out.data(), 1);
+    for (int i = 0; i < n; ++i)
+      ASSERT_EQ(channel_out[static_cast<size_t>(i)], one[static_cast<size_t>(i * v + c)]) << "channel " << c << ", point " << i;
+  }
+}
+
 TEST(DenseCrf, ExactAndPermutohedralAgree) {
   const int gw = 40, gh = 30, L = 3;
   const std::vector<CrfNode> nodes = grid_nodes(gw, gh, 3);
