@@ -218,6 +218,7 @@ Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, c
     times.add("  of which CRF nodes and kernels", r.crf_nodes_ms);
     times.add("  segmentation after tracking", r.segment_ms);
     for (const auto& [part, part_ms] : r.segment_parts_ms) times.add("    " + part, part_ms);
+    for (const auto& [part, part_ms] : r.lifecycle_parts_ms) times.add("      " + part, part_ms);
     times.add("whole frame", ms);
     frame_ms.push_back(ms);
   }

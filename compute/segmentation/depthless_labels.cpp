@@ -1,10 +1,12 @@
 #include "segmentation/depthless_labels.h"
 
+#include <atomic>
 #include <cmath>
 #include <string>
 #include <vector>
 
 #include "common/error.h"
+#include "segmentation/parallel.h"
 
 namespace cofusion::segmentation {
 
@@ -30,13 +32,21 @@ void label_depthless_pixels(std::span<uint16_t> labels, const Superpixels& super
     if (lead[s] == 0) candidate[s] = labels[i], lead[s] = 1;
     else lead[s] += candidate[s] == labels[i] ? 1 : -1;
   }
-  for (size_t i = 0; i < n; ++i)
-    if (has_depth(i)) votes[size_t(superpixels.label[i])] += labels[i] == candidate[size_t(superpixels.label[i])];
-  for (size_t i = 0; i < n; ++i) {
-    if (has_depth(i) || labels[i] != none || (!excluded.empty() && excluded[i])) continue;
-    const size_t s = static_cast<size_t>(superpixels.label[i]);
-    if (candidate[s] != none && 2 * votes[s] > with_depth[s]) labels[i] = candidate[s];
-  }
+  // The candidates' votes (integer counts) and the fill, in parallel.
+  std::vector<std::atomic<int>> atomic_votes(count);
+  detail::for_range(static_cast<int64_t>(n), 16384, [&](int64_t i0, int64_t i1) {
+    for (auto i = static_cast<size_t>(i0); i < static_cast<size_t>(i1); ++i)
+      if (has_depth(i) && labels[i] == candidate[size_t(superpixels.label[i])])
+        atomic_votes[size_t(superpixels.label[i])].fetch_add(1, std::memory_order_relaxed);
+  });
+  for (size_t s = 0; s < count; ++s) votes[s] = atomic_votes[s].load(std::memory_order_relaxed);
+  detail::for_range(static_cast<int64_t>(n), 16384, [&](int64_t i0, int64_t i1) {
+    for (auto i = static_cast<size_t>(i0); i < static_cast<size_t>(i1); ++i) {
+      if (has_depth(i) || labels[i] != none || (!excluded.empty() && excluded[i])) continue;
+      const size_t s = static_cast<size_t>(superpixels.label[i]);
+      if (candidate[s] != none && 2 * votes[s] > with_depth[s]) labels[i] = candidate[s];
+    }
+  });
 }
 
 }  // namespace cofusion::segmentation

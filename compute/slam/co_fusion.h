@@ -358,6 +358,10 @@ struct CoFusionFrame {
   // components, the rising background cost and the change since the previous frame (side by
   // side), the lifecycle.
   std::vector<std::pair<std::string, double>> segment_parts_ms;
+  // The lifecycle's part of segment_parts_ms by step, in order: the segmentation's slots (and the
+  // rigidity trial), merges, the spawn plan, instances and resting models, the label upload, spawns
+  // and presence.
+  std::vector<std::pair<std::string, double>> lifecycle_parts_ms;
 };
 
 // A model for export and display.

@@ -3,6 +3,8 @@
 // instance masks; movers.
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -39,10 +41,19 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
                                                std::vector<Model*>& order, CoFusionFrame& out,
                                                std::vector<int>& spawned_slots) {
+  auto lap = std::chrono::steady_clock::now();
+  const auto part = [&](const char* name) {
+    const auto now = std::chrono::steady_clock::now();
+    out.lifecycle_parts_ms.emplace_back(name, std::chrono::duration<double, std::milli>(now - lap).count());
+    lap = now;
+  };
   std::vector<uint8_t> slots = slots_from_segmentation(seg, costs, depth_m, order, out);
+  part("slots");
   merge_static_newcomers(order, slots, out);
   merge_comoving(order, slots, out);
+  part("merges");
   SpawnPlan plan = plan_spawns(seg, depth_m, static_cast<uint8_t>(order.size()), *order.front(), slots, out);
+  part("spawn plan");
   // Pixels per slot, kept up to date as the new regions take their (free) slots; an object model
   // whose slot has none lost its object in this segmentation.
   std::vector<int> slot_pixels(kSlots, 0);
@@ -63,10 +74,13 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
     scene_unexplained_share_ = scene_unexplained_share(costs.front(), slots, params_.costs.max_explained_cost_m);
   if (semantic_) apply_instances(slots, slot_pixels, taken, depth_m, costs.front(), out, spawned_slots);
   wake_resting(costs.front(), slots, out, spawned_slots);
+  part("instances, resting");
   upload_labels(slots);
+  part("label upload");
   for (const SpawnPlan::Spawn& sp : plan.spawns)
     spawn_or_reactivate(sp, plan.regions[sp.region], slot_pixels, out, spawned_slots);
   update_presence(slot_pixels, out);
+  part("spawns, presence");
   std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == kRemovedSlot; });
   return slots;
 }
@@ -366,29 +380,31 @@ std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superp
     return changed;
   const PreviousSamples& s = *previous_samples_;
   const float gain = exposure_gain(s, rgb, labels);
-  // Per background pixel: 0 untested, 1 tested, 2 tested and different (in parallel); then per
-  // superpixel.
-  std::vector<uint8_t> verdict(n, 0);
+  // Per superpixel, its background pixels tested and those that differ (integer counts, in
+  // parallel); then its background pixels where enough differ.
+  const size_t count = size_t(superpixels.count);
+  std::vector<std::atomic<int>> tested(count), differ(count);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i < r.end(); ++i) {
       if (labels[i] != 0 || s.intensity[i] < 0.0f) continue;
       const float d = std::abs(gain * grey_level(rgb, i) - s.intensity[i]);
-      verdict[i] = 1 + uint8_t(d > p.slide_min_intensity && d > float(p.slide_min_shift_px) * s.gradient[i]);
+      const size_t sp = size_t(superpixels.label[i]);
+      tested[sp].fetch_add(1, std::memory_order_relaxed);
+      if (d > p.slide_min_intensity && d > float(p.slide_min_shift_px) * s.gradient[i])
+        differ[sp].fetch_add(1, std::memory_order_relaxed);
     }
   });
-  std::vector<int> tested(size_t(superpixels.count), 0), differ(size_t(superpixels.count), 0);
-  for (size_t i = 0; i < n; ++i) {
-    if (verdict[i] == 0) continue;
-    ++tested[size_t(superpixels.label[i])];
-    differ[size_t(superpixels.label[i])] += verdict[i] == 2;
+  std::vector<uint8_t> changes(count, 0);
+  bool any = false;
+  for (size_t sp = 0; sp < count; ++sp) {
+    changes[sp] = tested[sp] > 0 && double(differ[sp]) >= p.slide_min_fraction * double(tested[sp]);
+    any = any || changes[sp];
   }
-  for (size_t i = 0; i < n; ++i) {
-    const size_t sp = size_t(superpixels.label[i]);
-    if (labels[i] != 0 || tested[sp] == 0 || double(differ[sp]) < p.slide_min_fraction * double(tested[sp]))
-      continue;
-    if (changed.empty()) changed.assign(n, 0);
-    changed[i] = 1;
-  }
+  if (!any) return changed;
+  changed.assign(n, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) changed[i] = labels[i] == 0 && changes[size_t(superpixels.label[i])];
+  });
   return changed;
 }
 
