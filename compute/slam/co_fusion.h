@@ -359,8 +359,8 @@ struct CoFusionFrame {
   // side), the lifecycle.
   std::vector<std::pair<std::string, double>> segment_parts_ms;
   // The lifecycle's part of segment_parts_ms by step, in order: the segmentation's slots (and the
-  // rigidity trial), merges, the spawn plan, instances and resting models, the label upload, spawns
-  // and presence.
+  // rigidity trial), merges, the spawn plan, the pixels per slot, instances and resting models, the
+  // label upload, spawns and presence.
   std::vector<std::pair<std::string, double>> lifecycle_parts_ms;
 };
 

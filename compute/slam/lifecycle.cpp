@@ -34,6 +34,25 @@ bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen:
   return true;
 }
 
+namespace {
+// Pixels per slot (kNoSlot is none): integer counts per block of pixels in parallel, then added.
+// One serial pass stalls on its own increments (most pixels share a few slots).
+std::vector<int> slot_pixel_counts(const std::vector<uint8_t>& slots) {
+  constexpr size_t kBlock = 16384;
+  const size_t blocks = (slots.size() + kBlock - 1) / kBlock;
+  std::vector<std::array<int, kSlots>> block_counts(blocks, std::array<int, kSlots>{});
+  tbb::parallel_for(size_t{0}, blocks, [&](size_t b) {
+    std::array<int, kSlots>& c = block_counts[b];
+    for (size_t i = b * kBlock; i < std::min(slots.size(), (b + 1) * kBlock); ++i)
+      if (slots[i] < kSlots) ++c[slots[i]];
+  });
+  std::vector<int> counts(kSlots, 0);
+  for (const auto& c : block_counts)
+    for (int s = 0; s < kSlots; ++s) counts[size_t(s)] += c[size_t(s)];
+  return counts;
+}
+}  // namespace
+
 // Turns the segmentation (labels = index into `order`, order.size() = outlier) into model slots
 // and applies the lifecycle rules: rigidity trials, merges, spawns and re-activations, absence
 // and retirement. Uploads the final label map.
@@ -56,9 +75,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   part("spawn plan");
   // Pixels per slot, kept up to date as the new regions take their (free) slots; an object model
   // whose slot has none lost its object in this segmentation.
-  std::vector<int> slot_pixels(kSlots, 0);
-  for (uint8_t sl : slots)
-    if (sl != kNoSlot) ++slot_pixels[sl];
+  std::vector<int> slot_pixels = slot_pixel_counts(slots);
   uint32_t taken = 0;  // slots given to this frame's new models
   for (SpawnPlan::Spawn& sp : plan.spawns) {
     sp.slot = free_slot(taken);
@@ -69,6 +86,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       ++slot_pixels[size_t(sp.slot)];
     }
   }
+  part("slot counts");
   // Resting models exist only where instances spawn models (semantic/both modes).
   if (params_.semantic.mode != SegmentationMode::kMotion)
     scene_unexplained_share_ = scene_unexplained_share(costs.front(), slots, params_.costs.max_explained_cost_m);
