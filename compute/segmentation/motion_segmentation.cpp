@@ -232,12 +232,14 @@ MotionSegmenter::MotionSegmenter(MotionSegmentationParams params) : params_(std:
   probe.set_nodes({}, p.crf);
 }
 
-Superpixels MotionSegmenter::superpixels(const uint8_t* rgb, const float* depth_m, int width, int height) {
+Superpixels MotionSegmenter::superpixels(const uint8_t* rgb, const float* depth_m, int width, int height,
+                                         bool prepare) {
   if (depth_m == nullptr) throw Error("motion segmentation: depth image pointer is null");
   const auto t0 = std::chrono::steady_clock::now();
   Superpixels sp = slic_.compute(rgb, depth_m, width, height, params_.slic);
   last_slic_ms_ = detail::ms_since(t0);
   sp.serial = ++last_serial_;
+  if (!prepare) return sp;
   const auto t1 = std::chrono::steady_clock::now();
   prepare_nodes(sp, rgb, depth_m);
   last_prepare_ms_ = detail::ms_since(t1);

@@ -97,10 +97,10 @@ class MotionSegmenter {
 
   const MotionSegmentationParams& params() const { return params_; }
 
-  // Step 1 (needs only the frame): the superpixels, and for them the CRF's nodes (position, colour,
-  // depth) and kernels, kept for segment(). rgb: w*h*3 bytes RGB; depth_m: w*h metres, 0 or
-  // non-finite = no reading.
-  Superpixels superpixels(const uint8_t* rgb, const float* depth_m, int width, int height);
+  // Step 1 (needs only the frame): the superpixels, and with prepare_nodes for them the CRF's nodes
+  // (position, colour, depth) and kernels, kept for segment(). rgb: w*h*3 bytes RGB; depth_m: w*h
+  // metres, 0 or non-finite = no reading.
+  Superpixels superpixels(const uint8_t* rgb, const float* depth_m, int width, int height, bool prepare_nodes = true);
 
   // Steps 2-4. `sp` from superpixels() on the same frame (rgb, depth_m as there, unchanged since);
   // superpixels made elsewhere (serial 0) or by an earlier call get their nodes here.

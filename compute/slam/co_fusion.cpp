@@ -85,6 +85,8 @@ const char* to_string(CameraState state) {
 // ---------------------------------------------------------------------------------------------
 CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusionParams& params)
     : ctx_(ctx),
+      overlap_host_work_(params.host_overlap == CoFusionParams::HostOverlap::kAuto ? !ctx.is_software()
+                                                                                  : params.host_overlap == CoFusionParams::HostOverlap::kOn),
       intrinsics_(intrinsics),
       params_(params),
       main_stream_(ctx, 0, "co-fusion main"),
@@ -537,7 +539,7 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   if (segmenting)
     cpu_jobs.run([&] {
       sp_start = Clock::now();
-      superpixels = segmenter_.superpixels(rgb, depth_m, width, height);
+      superpixels = segmenter_.superpixels(rgb, depth_m, width, height, overlap_host_work_);
       sp_end = Clock::now();
     });
   // The frame's keyframe encoding: for relocalisation now when lost, else for the database later.
@@ -578,14 +580,18 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   }
   stage("segment");
   // What the frame leaves that needs no fused model, on a CPU job while the models fuse.
-  tbb::task_group keep_job;
-  keep_job.run([&] {
+  const auto keep = [&] {
     keep_frame(camera, encoding, depth_m, rgb, segmenting && camera != CameraState::kLost ? &*superpixels : nullptr,
                excluded, out);
-  });
+  };
+  tbb::task_group keep_job;
+  if (overlap_host_work_) keep_job.run(keep);
   fuse_models(spawned_slots);
   stage("fuse");
-  keep_job.wait();
+  if (overlap_host_work_)
+    keep_job.wait();
+  else
+    keep();
   finish_frame(camera, out);
   stage("finish");
   return out;
@@ -712,7 +718,7 @@ CameraState CoFusion::track_models(const std::vector<Model*>& active, const floa
   // The previous frame's image where the camera's motion puts this frame's pixels (spawn
   // evidence), on a CPU job while the GPU tests rest and computes the residuals.
   tbb::task_group sampling;
-  if (can_sample_previous()) {
+  if (overlap_host_work_ && can_sample_previous()) {
     const Eigen::Isometry3d T_previous_current = camera_history_.back()->inverse() * camera_pose_after(bg.motion);
     sampling.run([this, depth_m, T_previous_current] { previous_samples_ = sample_previous(depth_m, T_previous_current); });
   }
@@ -929,7 +935,7 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
   // Two independent pieces of evidence for spawns, side by side.
   tbb::parallel_invoke(
       [&] { rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size())); },
-      [&] { changed_ = changed_since_previous(superpixels, rgb, seg.labels); });
+      [&] { changed_ = changed_since_previous(superpixels, depth_m, rgb, seg.labels); });
   part("rising cost and previous frame");
   slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);

@@ -387,16 +387,21 @@ float CoFusion::exposure_gain(const PreviousSamples& s, const uint8_t* rgb, cons
 // LifecycleParams::slide_*: per pixel 1 for the background pixels of superpixels whose image
 // changed since the previous frame more than the camera's motion explains, else 0; empty when
 // there is none (or no previous frame, or the camera is not steady enough for a spawn).
-// previous_samples_: this frame's sample_previous, taken while the GPU computed the residuals.
+// The samples are previous_samples_ where they were taken while the GPU computed the residuals
+// (CoFusion::overlap_host_work_), else taken here.
 std::vector<uint8_t> CoFusion::changed_since_previous(const segmentation::Superpixels& superpixels,
-                                                      const uint8_t* rgb, const std::vector<uint8_t>& labels) const {
+                                                      const float* depth_m, const uint8_t* rgb,
+                                                      const std::vector<uint8_t>& labels) const {
   const LifecycleParams& p = params_.lifecycle;
   const size_t n = labels.size();
   std::vector<uint8_t> changed;
-  if (!previous_samples_ || previous_samples_->intensity.size() != n || superpixels.label.size() != n ||
-      !spawn_camera_steady(*models_.front()))
-    return changed;
-  const PreviousSamples& s = *previous_samples_;
+  if (superpixels.label.size() != n || !spawn_camera_steady(*models_.front())) return changed;
+  std::optional<PreviousSamples> taken_now;
+  if (!previous_samples_ && can_sample_previous())
+    taken_now = sample_previous(depth_m, camera_history_.back()->inverse() * T_world_camera_);
+  const PreviousSamples* samples = previous_samples_ ? &*previous_samples_ : taken_now ? &*taken_now : nullptr;
+  if (!samples || samples->intensity.size() != n) return changed;
+  const PreviousSamples& s = *samples;
   const float gain = exposure_gain(s, rgb, labels);
   // Per superpixel, its background pixels tested and those that differ (integer counts, in
   // parallel); then its background pixels where enough differ.

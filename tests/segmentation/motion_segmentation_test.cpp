@@ -312,6 +312,9 @@ TEST(MotionSegmentation, NodesPreparedWithTheSuperpixelsAreUsedOnlyForThem) {
   const std::vector<uint8_t> labels_b = seg.segment(sp_b, b.rgb.data(), b.depth_m.data(), spans(b.costs)).labels;
   EXPECT_TRUE(labels_b == labels_from_scratch(b, sp_b));
   EXPECT_FALSE(labels_b == prepared_a);
+  // Superpixels made without their nodes get them in segment().
+  const Superpixels bare_a = seg.superpixels(a.rgb.data(), a.depth_m.data(), a.width, a.height, false);
+  EXPECT_TRUE(seg.segment(bare_a, a.rgb.data(), a.depth_m.data(), spans(a.costs)).labels == prepared_a);
 }
 
 TEST(MotionSegmentation, RejectsBadInput) {

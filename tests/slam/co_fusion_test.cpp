@@ -590,6 +590,32 @@ TEST_F(CoFusionScenes, RunsOfOneSceneAreBitIdenticalAlsoThroughStaging) {
   expect_identical_runs(a, run_once(staging_context));
 }
 
+// Host work that needs only the frame runs on CPU jobs beside the GPU's work on a real GPU, in
+// line on lavapipe (CoFusionParams::host_overlap): both schedules give the same results, to the
+// bit. Two objects start moving in these frames, so spawns, the previous-frame evidence and the
+// CRF with several models all run.
+TEST_F(CoFusionScenes, HostWorkBesideTheGpuOrInLineGivesTheSameResults) {
+  const synthetic::SyntheticSequence seq(synthetic::load_scene("two_objects"), 0, 30);
+  const auto run_once = [&](slam::CoFusionParams::HostOverlap overlap) {
+    SceneResult out;
+    slam::CoFusionParams params;
+    params.host_overlap = overlap;
+    CoFusion slam(ctx(), seq.intrinsics(), params);
+    for (int f = 0; f < seq.size(); ++f) {
+      const Frame frame = seq.frame(f);
+      out.frames.push_back(slam.process(frame.depth_m.ptr<float>(), frame.rgb.data));
+    }
+    gpu::Stream download(ctx(), 0, "download");
+    for (const auto& m : slam.models()) out.surfels[m.id] = m.model->download(download);
+    return out;
+  };
+  const SceneResult in_line = run_once(slam::CoFusionParams::HostOverlap::kOff);
+  size_t most_models = 0;
+  for (const auto& f : in_line.frames) most_models = std::max(most_models, f.active.size());
+  EXPECT_GE(most_models, 2u) << "no object was found: the test would not cover the segmentation with objects";
+  expect_identical_runs(in_line, run_once(slam::CoFusionParams::HostOverlap::kOn));
+}
+
 TEST_F(CoFusionScenes, WithoutMotionSegmentationEverythingIsBackground) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("two_objects"), 0, 12);
   slam::CoFusionParams params;
