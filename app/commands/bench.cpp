@@ -215,7 +215,8 @@ Json bench_models(gpu::Context& ctx, const std::string& input, int max_frames, c
     for (const auto& [stage, stage_ms] : r.stage_ms) times.add(stage, stage_ms);
     times.add("  superpixels (CPU job)", r.superpixels_ms);
     times.add("  of which overlapped GPU work", r.superpixels_overlap_ms);
-    times.add("  of which CRF nodes and kernels", r.crf_nodes_ms);
+    // Only where the device runs them beside the GPU's work (CoFusionParams::host_overlap).
+    if (r.crf_nodes_ms > 0) times.add("  of which CRF nodes and kernels", r.crf_nodes_ms);
     times.add("  segmentation after tracking", r.segment_ms);
     for (const auto& [part, part_ms] : r.segment_parts_ms) times.add("    " + part, part_ms);
     for (const auto& [part, part_ms] : r.lifecycle_parts_ms) times.add("      " + part, part_ms);

@@ -356,7 +356,7 @@ struct CoFusionFrame {
   // CPU segmentation: superpixels (run while the GPU tracks) and the rest (after tracking).
   double superpixels_ms = 0;
   double superpixels_overlap_ms = 0;  // of superpixels_ms, the part that ran while GPU work was in flight
-  double crf_nodes_ms = 0;            // of superpixels_ms, the CRF's nodes and kernels (they need only the frame)
+  double crf_nodes_ms = 0;            // of superpixels_ms, the CRF's nodes and kernels (0 where built in line: host_overlap)
   double segment_ms = 0;
   // segment_ms by part, in order: the models' costs, the segmenter's unaries, CRF and connected
   // components, the rising background cost and the change since the previous frame (side by
