@@ -24,7 +24,7 @@ void label_depthless_pixels(std::span<uint16_t> labels, const Superpixels& super
   // Per superpixel, over its pixels with depth: the majority candidate (Boyer-Moore), then its votes.
   const size_t count = static_cast<size_t>(superpixels.count);
   std::vector<uint16_t> candidate(count, none);
-  std::vector<int> lead(count, 0), votes(count, 0), with_depth(count, 0);
+  std::vector<int> lead(count, 0), with_depth(count, 0);
   for (size_t i = 0; i < n; ++i) {
     if (!has_depth(i)) continue;
     const size_t s = static_cast<size_t>(superpixels.label[i]);
@@ -33,13 +33,12 @@ void label_depthless_pixels(std::span<uint16_t> labels, const Superpixels& super
     else lead[s] += candidate[s] == labels[i] ? 1 : -1;
   }
   // The candidates' votes (integer counts) and the fill, in parallel.
-  std::vector<std::atomic<int>> atomic_votes(count);
+  std::vector<std::atomic<int>> votes(count);
   detail::for_range(static_cast<int64_t>(n), 16384, [&](int64_t i0, int64_t i1) {
     for (auto i = static_cast<size_t>(i0); i < static_cast<size_t>(i1); ++i)
       if (has_depth(i) && labels[i] == candidate[size_t(superpixels.label[i])])
-        atomic_votes[size_t(superpixels.label[i])].fetch_add(1, std::memory_order_relaxed);
+        votes[size_t(superpixels.label[i])].fetch_add(1, std::memory_order_relaxed);
   });
-  for (size_t s = 0; s < count; ++s) votes[s] = atomic_votes[s].load(std::memory_order_relaxed);
   detail::for_range(static_cast<int64_t>(n), 16384, [&](int64_t i0, int64_t i1) {
     for (auto i = static_cast<size_t>(i0); i < static_cast<size_t>(i1); ++i) {
       if (has_depth(i) || labels[i] != none || (!excluded.empty() && excluded[i])) continue;

@@ -98,6 +98,7 @@ class ChunkSums {
       const float d = depth_m_[row + static_cast<size_t>(x)];
       const bool ok = valid_depth(d);
       row_valid_[static_cast<size_t>(x)] = ok;
+      if (!base_) continue;  // the cost sums need only which pixels have depth
       row_depth_[static_cast<size_t>(x)] = ok ? d : 0.0f;
       if (ok) {
         info_.depth_min = std::min(info_.depth_min, d);
@@ -247,8 +248,9 @@ Superpixels MotionSegmenter::superpixels(const uint8_t* rgb, const float* depth_
 }
 
 
-// The sums of `part` (base or costs) per superpixel over every pixel, added in fixed row chunks
-// in chunk order (deterministic); throws for a bad label or cost, else returns the depth range.
+// The base sums (`base`) or the costs' sums per superpixel over every pixel, added in fixed row
+// chunks in chunk order (deterministic); throws for a bad label or cost. With the base sums,
+// *depth_range_m gets the frame's depth range.
 std::vector<double> MotionSegmenter::chunk_sums(const Superpixels& sp, const uint8_t* rgb, const float* depth_m,
                                                 std::span<const std::span<const float>> costs, bool base,
                                                 float* depth_range_m) {

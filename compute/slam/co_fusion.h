@@ -535,7 +535,7 @@ class CoFusion {
   // Whether host work that needs only the frame runs on CPU jobs beside the GPU's work (the CRF's
   // nodes with the superpixels, the previous-frame samples with the residuals, the frame's
   // outputs with the fusion); by default not where the "GPU" is the same CPU (lavapipe): there
-  // the jobs take the driver's cores mid-dispatch, and frames with 6 models were 12-15 % slower.
+  // the jobs take the driver's cores mid-dispatch, and frames with 6 models were 15-18 % slower.
   const bool overlap_host_work_;
   Intrinsics intrinsics_;
   CoFusionParams params_;
