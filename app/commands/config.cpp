@@ -168,6 +168,7 @@ void read_costs(Section& s, slam::MotionCostParams& c) {
 
 void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   s.field("spawn_min_area_fraction", c.spawn_min_area_fraction)
+      .field("spawn_keep_area_fraction", c.spawn_keep_area_fraction)
       .field("warmup_frames", c.warmup_frames)
       .field("spawn_max_camera_rotation_deg", c.spawn_max_camera_rotation_deg)
       .field("spawn_max_camera_translation_m", c.spawn_max_camera_translation_m)
@@ -207,6 +208,8 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   const std::string& where = s.where();
   if (!(c.spawn_min_area_fraction > 0 && c.spawn_min_area_fraction < 1))
     throw Error(where + ".spawn_min_area_fraction: must be in (0, 1)");
+  if (!(c.spawn_keep_area_fraction >= 0 && c.spawn_keep_area_fraction <= c.spawn_min_area_fraction))
+    throw Error(where + ".spawn_keep_area_fraction: must be in [0, spawn_min_area_fraction]");
   if (!(c.rising_min_cost_m >= 0 && c.rising_min_step_m >= 0 && c.rising_max_cost_m >= 0 && c.rising_min_area_fraction >= 0 &&
         c.rising_min_area_fraction < 1))
     throw Error(where + ".rising_*: costs must be >= 0 and rising_min_area_fraction in [0, 1)");

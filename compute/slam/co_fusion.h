@@ -96,6 +96,11 @@ struct LifecycleParams {
   // A new model spawns from a connected outlier region covering more than this fraction of the
   // image (paper: 3%) ...
   double spawn_min_area_fraction = 0.03;
+  // A region's evidence must last two frames (spawn_min_overlap below): the first frame's region
+  // must cover spawn_min_area_fraction, the second's only this smaller fraction (hysteresis: an
+  // object that starts slowly makes a region that hovers about the threshold, above it in one
+  // frame and below in the next). 0 = both frames need spawn_min_area_fraction.
+  double spawn_keep_area_fraction = 0.015;
   // ... once the background has been fused for this many frames (its model and the camera pose
   // must be stable first, paper section III).
   int warmup_frames = 5;
@@ -568,10 +573,11 @@ class CoFusion {
   // This frame's share of pixels (not movers') that the background's prediction covers but does not
   // explain: the bar a resting model's own share is measured against (SemanticParams).
   double scene_unexplained_share_ = 0;
-  // The previous frame's large outlier regions that did not spawn: per pixel 0 = none, k = the
-  // k-th, whose live points' centroid (camera frame; none without depth) is entry k - 1.
+  // The previous frame's outlier regions (outlier_regions) that did not spawn: per pixel 0 = none,
+  // k = the k-th, whose live points' centroid (camera frame; none without depth) is entry k - 1.
   std::vector<uint8_t> spawn_candidate_;
   std::vector<std::optional<Eigen::Vector3d>> spawn_candidate_centroids_;
+  std::vector<char> spawn_candidate_large_;  // per candidate: it covered spawn_min_area_fraction
   // The background's per-pixel costs of the last two frames (frame number, costs; newest last)
   // and this frame's rising pixels (LifecycleParams::rising_min_step_m; empty = none).
   std::deque<std::pair<int, std::vector<float>>> background_cost_history_;

@@ -196,7 +196,8 @@ void CoFusion::merge_comoving(const std::vector<Model*>& order, std::vector<uint
 }
 
 // The pixels of every connected outlier region (4-connectivity) that is no mover and covers
-// between spawn_min_area_fraction and spawn_max_area_fraction of the image, largest first.
+// between spawn_keep_area_fraction (spawn_min_area_fraction where that is 0) and
+// spawn_max_area_fraction of the image, largest first.
 std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::SegmentationResult& seg, uint8_t outlier,
                                                            std::vector<uint8_t>& slots) {
   const LifecycleParams& p = params_.lifecycle;
@@ -223,10 +224,11 @@ std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::S
       }
     for (size_t c = 0; c < mover.size(); ++c) mover[c] = !seeded[c];
   }
+  const double min_fraction = p.spawn_keep_area_fraction > 0 ? p.spawn_keep_area_fraction : p.spawn_min_area_fraction;
   std::vector<int> large_components;
   for (int c = 0; c < int(components_.components.size()); ++c) {
     const auto& info = components_.components[size_t(c)];
-    if (info.value == outlier && !mover[size_t(c)] && double(info.pixels) > p.spawn_min_area_fraction * n &&
+    if (info.value == outlier && !mover[size_t(c)] && double(info.pixels) > min_fraction * n &&
         double(info.pixels) <= p.spawn_max_area_fraction * n)
       large_components.push_back(c);
   }
@@ -448,7 +450,7 @@ std::optional<Eigen::Vector3d> CoFusion::region_centroid(const std::vector<size_
   return sum / double(count);
 }
 
-// Which outlier regions spawn a model: one that was a candidate in the previous frame too
+// Which outlier regions spawn a model: one that was a spawn-sized candidate in the previous frame
 // (transient outliers, a blurred frame or a depth glitch, spawn nothing), while the camera is
 // steady, within the active-model limit, and that moved as one rigid body since the previous frame
 // (LifecycleParams::spawn_rigidity; a person entering the view does not). The others are this
@@ -465,8 +467,10 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
   const bool camera_steady = spawn_camera_steady(bg);
   const std::vector<uint8_t> previous_candidates = std::move(spawn_candidate_);
   const std::vector<std::optional<Eigen::Vector3d>> previous_centroids = std::move(spawn_candidate_centroids_);
+  const std::vector<char> previous_large = std::move(spawn_candidate_large_);
   spawn_candidate_.assign(n, 0);
   spawn_candidate_centroids_.clear();
+  spawn_candidate_large_.clear();
   // Semantic mode: models come from instance masks only.
   if (params_.semantic.mode == SegmentationMode::kSemantic) plan.regions.clear();
   for (size_t r = 0; r < plan.regions.size(); ++r) {
@@ -476,11 +480,13 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     std::vector<size_t> overlap(previous_centroids.size() + 1, 0);
     if (previous_candidates.size() == n)
       for (size_t i : pixels) ++overlap[previous_candidates[i]];
+    // Hysteresis (spawn_keep_area_fraction): only spawn-sized candidates confirm a region.
     size_t confirmed = 0, best_previous = 0;
     for (size_t k = 1; k < overlap.size(); ++k) {
-      confirmed += overlap[k];
+      if (previous_large[k - 1]) confirmed += overlap[k];
       if (overlap[k] > overlap[best_previous]) best_previous = k;
     }
+    const bool large = double(pixels.size()) > p.spawn_min_area_fraction * double(n);
     const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(pixels.size());
     const std::optional<Eigen::Vector3d> previous_centroid =
         best_previous > 0 ? previous_centroids[best_previous - 1] : std::nullopt;
@@ -500,6 +506,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     }
     if (spawn_candidate_centroids_.size() < 254) {  // a candidate for the next frame
       spawn_candidate_centroids_.push_back(centroid);
+      spawn_candidate_large_.push_back(large);
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidate_centroids_.size());
     }
   }

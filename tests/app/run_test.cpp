@@ -587,7 +587,10 @@ TEST(RunCommand, SpawnEvidenceSettingsAreReadAndChecked) {
   const Result slide = run_with_config(dir, "slide.json", R"({"lifecycle": {"slide_min_fraction": 2}})");
   EXPECT_NE(slide.exit_code, 0);
   EXPECT_THAT(slide.output, HasSubstr("slide_min_fraction at most 1")) << slide.output;
-  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"rising_min_step_m": 0, "slide_min_shift_px": 0}})",
+  const Result keep = run_with_config(dir, "keep.json", R"({"lifecycle": {"spawn_keep_area_fraction": 0.05}})");
+  EXPECT_NE(keep.exit_code, 0);
+  EXPECT_THAT(keep.output, HasSubstr("spawn_keep_area_fraction: must be in [0, spawn_min_area_fraction]")) << keep.output;
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"rising_min_step_m": 0, "slide_min_shift_px": 0, "spawn_keep_area_fraction": 0}})",
                                     "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
