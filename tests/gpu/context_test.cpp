@@ -193,9 +193,7 @@ TEST_F(ComputeCore, UploadAndDownloadRoundTripThroughMappingAndStaging) {
   stream().upload<float>(b, data);
   EXPECT_EQ(stream().download<float>(b, data.size()), data);
 
-  auto options = validated_options();
-  options.force_staging = true;
-  gpu::Context staging_ctx(options);
+  gpu::Context staging_ctx(staging_options());
   gpu::Stream s(staging_ctx, 0, "staging stream");
   auto sb = gpu::Buffer::create(staging_ctx, data.size() * 4, "staged");
   EXPECT_EQ(sb->mapped(), nullptr);
@@ -212,9 +210,7 @@ TEST_F(ComputeCore, UploadAndDownloadRoundTripThroughMappingAndStaging) {
 // A kernel's result read back in the submission that computes it: mapped (lavapipe) and through
 // the readback buffer (as on discrete GPUs), for edge sizes and an offset.
 TEST_F(ComputeCore, RecordedDownloadReadsTheResultOfItsOwnSubmission) {
-  auto staging_options = validated_options();
-  staging_options.force_staging = true;
-  gpu::Context staging_ctx(staging_options);
+  gpu::Context staging_ctx(staging_options());
   for (gpu::Context* c : {&ctx(), &staging_ctx}) {
     SCOPED_TRACE(c == &ctx() ? "fixture context" : "staging context");
     gpu::Stream s(*c, 0, "recorded download");
@@ -241,9 +237,7 @@ TEST_F(ComputeCore, RecordedDownloadReadsTheResultOfItsOwnSubmission) {
 // and the list's own later work sees it; a staging buffer is grown as needed and reused by the
 // next list once the earlier one has completed.
 TEST_F(ComputeCore, RecordedUploadIsSeenByTheListsOwnWork) {
-  auto staging_options = validated_options();
-  staging_options.force_staging = true;
-  gpu::Context staging_ctx(staging_options);
+  gpu::Context staging_ctx(staging_options());
   for (gpu::Context* c : {&ctx(), &staging_ctx}) {
     SCOPED_TRACE(c == &ctx() ? "fixture context" : "staging context");
     gpu::Stream s(*c, 0, "recorded upload");

@@ -585,9 +585,7 @@ TEST_F(CoFusionScenes, RunsOfOneSceneAreBitIdenticalAlsoThroughStaging) {
   const SceneResult b = run_once(ctx());
   mallopt(M_PERTURB, 0);
   expect_identical_runs(a, b);
-  auto staging_options = validated_options();
-  staging_options.force_staging = true;
-  gpu::Context staging_context(staging_options);
+  gpu::Context staging_context(staging_options());
   SCOPED_TRACE("through staging buffers");
   expect_identical_runs(a, run_once(staging_context));
 }

@@ -12,6 +12,12 @@ gpu::ContextOptions validated_options() {
   return options;
 }
 
+gpu::ContextOptions staging_options() {
+  gpu::ContextOptions options = validated_options();
+  options.force_staging = true;
+  return options;
+}
+
 void GpuTest::SetUpTestSuite() {
   if (!context_) {
     context_ = std::make_unique<gpu::Context>(validated_options());

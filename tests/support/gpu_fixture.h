@@ -16,6 +16,9 @@ namespace cofusion::test {
 
 // Options every test context uses: validation on, errors become test failures.
 gpu::ContextOptions validated_options();
+// validated_options() whose buffers are never host-mapped: every transfer goes through staging
+// buffers, as on discrete GPUs (lavapipe maps every buffer).
+gpu::ContextOptions staging_options();
 
 class GpuTest : public ::testing::Test {
  protected:
