@@ -574,10 +574,13 @@ class CoFusion {
   // explain: the bar a resting model's own share is measured against (SemanticParams).
   double scene_unexplained_share_ = 0;
   // The previous frame's outlier regions (outlier_regions) that did not spawn: per pixel 0 = none,
-  // k = the k-th, whose live points' centroid (camera frame; none without depth) is entry k - 1.
+  // k = the k-th, described by entry k - 1.
+  struct SpawnCandidate {
+    std::optional<Eigen::Vector3d> centroid;  // of its live points, camera frame; none without depth
+    bool large = false;                       // it covered spawn_min_area_fraction
+  };
   std::vector<uint8_t> spawn_candidate_;
-  std::vector<std::optional<Eigen::Vector3d>> spawn_candidate_centroids_;
-  std::vector<char> spawn_candidate_large_;  // per candidate: it covered spawn_min_area_fraction
+  std::vector<SpawnCandidate> spawn_candidates_;
   // The background's per-pixel costs of the last two frames (frame number, costs; newest last)
   // and this frame's rising pixels (LifecycleParams::rising_min_step_m; empty = none).
   std::deque<std::pair<int, std::vector<float>>> background_cost_history_;

@@ -466,30 +466,28 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
   const bool camera_steady = spawn_camera_steady(bg);
   const std::vector<uint8_t> previous_candidates = std::move(spawn_candidate_);
-  const std::vector<std::optional<Eigen::Vector3d>> previous_centroids = std::move(spawn_candidate_centroids_);
-  const std::vector<char> previous_large = std::move(spawn_candidate_large_);
+  const std::vector<SpawnCandidate> previous = std::move(spawn_candidates_);
   spawn_candidate_.assign(n, 0);
-  spawn_candidate_centroids_.clear();
-  spawn_candidate_large_.clear();
+  spawn_candidates_.clear();
   // Semantic mode: models come from instance masks only.
   if (params_.semantic.mode == SegmentationMode::kSemantic) plan.regions.clear();
   for (size_t r = 0; r < plan.regions.size(); ++r) {
     const std::vector<size_t>& pixels = plan.regions[r];
     const std::optional<Eigen::Vector3d> centroid = region_centroid(pixels, depth_m);
     // Which previous candidate the region overlaps most gives its last position.
-    std::vector<size_t> overlap(previous_centroids.size() + 1, 0);
+    std::vector<size_t> overlap(previous.size() + 1, 0);
     if (previous_candidates.size() == n)
       for (size_t i : pixels) ++overlap[previous_candidates[i]];
     // Hysteresis (spawn_keep_area_fraction): only spawn-sized candidates confirm a region.
     size_t confirmed = 0, best_previous = 0;
     for (size_t k = 1; k < overlap.size(); ++k) {
-      if (previous_large[k - 1]) confirmed += overlap[k];
+      if (previous[k - 1].large) confirmed += overlap[k];
       if (overlap[k] > overlap[best_previous]) best_previous = k;
     }
     const bool large = double(pixels.size()) > p.spawn_min_area_fraction * double(n);
     const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(pixels.size());
     const std::optional<Eigen::Vector3d> previous_centroid =
-        best_previous > 0 ? previous_centroids[best_previous - 1] : std::nullopt;
+        best_previous > 0 ? previous[best_previous - 1].centroid : std::nullopt;
     const bool eligible = frame_ >= p.warmup_frames && camera_steady && persistent &&
                           active_count + int(plan.spawns.size()) < p.max_active_models;
     const std::optional<double> rigid =
@@ -504,10 +502,9 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
                     100.0 * double(pixels.size()) / double(n), 100.0 * *rigid);
       out.events.push_back("frame " + std::to_string(frame_) + ": " + what);
     }
-    if (spawn_candidate_centroids_.size() < 254) {  // a candidate for the next frame
-      spawn_candidate_centroids_.push_back(centroid);
-      spawn_candidate_large_.push_back(large);
-      for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidate_centroids_.size());
+    if (spawn_candidates_.size() < 254) {  // a candidate for the next frame
+      spawn_candidates_.push_back({centroid, large});
+      for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidates_.size());
     }
   }
   return plan;
