@@ -169,6 +169,7 @@ void read_costs(Section& s, slam::MotionCostParams& c) {
 void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   s.field("spawn_min_area_fraction", c.spawn_min_area_fraction)
       .field("spawn_keep_area_fraction", c.spawn_keep_area_fraction)
+      .field("hold_spawn_candidates", c.hold_spawn_candidates)
       .field("warmup_frames", c.warmup_frames)
       .field("spawn_max_camera_rotation_deg", c.spawn_max_camera_rotation_deg)
       .field("spawn_max_camera_translation_m", c.spawn_max_camera_translation_m)

@@ -101,6 +101,14 @@ struct LifecycleParams {
   // object that starts slowly makes a region that hovers about the threshold, above it in one
   // frame and below in the next). 0 = both frames need spawn_min_area_fraction.
   double spawn_keep_area_fraction = 0.015;
+  // The pixels the segmentation gave the background inside a spawn-sized candidate region (one
+  // that covers spawn_min_area_fraction and did not spawn this frame) belong to no model for this
+  // frame: the background neither fuses them nor, in the next frame, tracks with them. An object
+  // that starts slowly is otherwise absorbed: the background fuses the pixels its motion does not
+  // yet push over the outlier cost, fits the object's new place within a frame or two, and its
+  // region vanishes before it is confirmed. They are not unclaimed pixels (which the camera tracks
+  // with when they cover much of the image): the camera would follow the object.
+  bool hold_spawn_candidates = true;
   // ... once the background has been fused for this many frames (its model and the camera pose
   // must be stable first, paper section III).
   int warmup_frames = 5;
@@ -475,6 +483,7 @@ class CoFusion {
     };
     std::vector<std::vector<size_t>> regions;
     std::vector<Spawn> spawns;
+    std::vector<size_t> held;  // regions whose background pixels are held (hold_spawn_candidates)
   };
   std::vector<uint8_t> slots_from_segmentation(const segmentation::SegmentationResult& seg,
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
@@ -482,6 +491,8 @@ class CoFusion {
   static void relabel(std::vector<uint8_t>& slots, int from, int to);
   void merge_static_newcomers(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
   void merge_comoving(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
+  static void hold_candidates(const SpawnPlan& plan, int background_slot, std::vector<uint8_t>& slots,
+                              std::vector<int>& slot_pixels);
   std::vector<uint8_t> rising_background(const segmentation::Superpixels& superpixels,
                                          const std::vector<float>& background_costs, const std::vector<uint8_t>& labels,
                                          uint8_t outlier);

@@ -86,6 +86,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
       ++slot_pixels[size_t(sp.slot)];
     }
   }
+  hold_candidates(plan, order.front()->slot, slots, slot_pixels);
   part("slot counts");
   // Resting models exist only where instances spawn models (semantic/both modes).
   if (params_.semantic.mode != SegmentationMode::kMotion)
@@ -502,12 +503,25 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
                     100.0 * double(pixels.size()) / double(n), 100.0 * *rigid);
       out.events.push_back("frame " + std::to_string(frame_) + ": " + what);
     }
+    if (large && p.hold_spawn_candidates) plan.held.push_back(r);
     if (spawn_candidates_.size() < 254) {  // a candidate for the next frame
       spawn_candidates_.push_back({centroid, large});
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidates_.size());
     }
   }
   return plan;
+}
+
+// LifecycleParams::hold_spawn_candidates: the background's pixels in the held candidate regions
+// belong to no model this frame (kNoSlot).
+void CoFusion::hold_candidates(const SpawnPlan& plan, int background_slot, std::vector<uint8_t>& slots,
+                               std::vector<int>& slot_pixels) {
+  for (size_t r : plan.held)
+    for (size_t i : plan.regions[r])
+      if (slots[i] == background_slot) {
+        slots[i] = kNoSlot;
+        --slot_pixels[size_t(background_slot)];
+      }
 }
 
 // Whether the camera (the background's tracking, bg) is steady enough for a spawn this frame.
