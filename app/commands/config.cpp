@@ -156,6 +156,7 @@ void read_costs(Section& s, slam::MotionCostParams& c) {
       .field("max_cost_m", c.max_cost_m)
       .field("noise_reference_depth_m", c.noise_reference_depth_m)
       .field("max_explained_cost_m", c.max_explained_cost_m)
+      .field("background_takes_unmodelled", c.background_takes_unmodelled)
       .field("object_margin_px", c.object_margin_px)
       .field("occluding_margin_m", c.occluding_margin_m)
       .field("unseen_surface_cost_m", c.unseen_surface_cost_m)

@@ -73,6 +73,13 @@ struct MotionCostParams {
   // scene 1 cm gives 8 mm camera ATE where 1.5 cm gives 13 mm (the box's pixels, moving slowly
   // before it is discovered, pull the camera less), with no change on the TUM recordings.
   float max_explained_cost_m = 0.01f;
+  // A pixel the segmentation gives to a moving object model that has no geometry there, while the
+  // background explains it (cost at most max_explained_cost_m), is the background's. Superpixels
+  // that span an object's outline and a similarly coloured static surface behind it otherwise hand
+  // that surface to the object, which fuses it and is then held back by it (the validation scene's
+  // lifted box turned half as fast as it did for six frames). Resting models keep such pixels:
+  // they do not move relative to the background.
+  bool background_takes_unmodelled = true;
   // An object's residuals are computed only within this many pixels (level 0) of the bounding
   // rectangle of its previous segmentation; beyond it the object counts as having no geometry.
   // Its region can grow this much per frame (fast objects move 10-20 px per frame at 30 Hz),

@@ -105,7 +105,9 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
 }
 
 // Each pixel's slot: its model's where the segmentation gave it to a model whose motion explains
-// it, unclaimed where it is an outlier or unlabelled with depth, else none. Then the young models
+// it (the background's where an object has no geometry there and the background explains it:
+// MotionCostParams::background_takes_unmodelled), unclaimed where it is an outlier or unlabelled
+// with depth, else none. Then the young models
 // that fail their rigidity trial are dropped (drop_nonrigid).
 std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::SegmentationResult& seg,
                                                        const std::vector<std::vector<float>>& costs,
@@ -115,6 +117,7 @@ std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::Segme
   const uint8_t outlier = static_cast<uint8_t>(order.size());
   std::vector<uint8_t> slots(n, kNoSlot);
   const float max_cost = params_.costs.max_explained_cost_m;
+  const bool takes_unmodelled = params_.costs.background_takes_unmodelled;
   // Per model: pixels the segmentation gave it, and of those the ones its motion explains (counts
   // per block of rows in parallel, then added).
   constexpr size_t kRows = 32;
@@ -124,7 +127,10 @@ std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::Segme
     int* labelled = block_counts.data() + b * 2 * order.size();
     int* explained = labelled + order.size();
     for (size_t i = b * kRows * width; i < std::min(n, (b + 1) * kRows * width); ++i) {
-      const uint8_t l = seg.labels[i];
+      uint8_t l = seg.labels[i];
+      if (l > 0 && l < outlier && takes_unmodelled && !order[l]->resting && std::isnan(costs[l][i]) &&
+          depth_m[i] > 0.0f && costs[0][i] <= max_cost)
+        l = 0;  // MotionCostParams::background_takes_unmodelled (order[0] is the background)
       if (l < outlier) ++labelled[l];
       if (l < outlier && !(costs[l][i] > max_cost)) {
         slots[i] = static_cast<uint8_t>(order[l]->slot);

@@ -523,6 +523,9 @@ TEST(RunCommand, SemanticConfigGroupIsReadAndChecked) {
   const Result r = run_with_config(dir, "config.json", R"({"semantic": {"join_min_iou": 1.5}})");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("config.json: semantic: confirm_frames must be >= 1")) << r.output;
+  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
+  EXPECT_NE(takes.exit_code, 0);
+  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
   const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
   EXPECT_NE(hold.exit_code, 0);
   EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
@@ -539,6 +542,9 @@ TEST(RunCommand, SpawnRigidityConfigIsReadAndChecked) {
   const Result typo = run_with_config(dir, "typo.json", R"({"lifecycle": {"spawn_rigidity": {"min_alinged_fraction": 0.5}}})");
   EXPECT_NE(typo.exit_code, 0);
   EXPECT_THAT(typo.output, HasSubstr("min_alinged_fraction")) << typo.output;
+  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
+  EXPECT_NE(takes.exit_code, 0);
+  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
   const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
   EXPECT_NE(hold.exit_code, 0);
   EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
@@ -554,7 +560,10 @@ TEST(RunCommand, KeyframeGainConfigsAreReadAndChecked) {
     EXPECT_NE(r.exit_code, 0) << key;
     EXPECT_THAT(r.output, HasSubstr(key)) << r.output;
     EXPECT_THAT(r.output, HasSubstr("in [0, 1]")) << r.output;
-    const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
+    const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
+  EXPECT_NE(takes.exit_code, 0);
+  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
+  const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
   EXPECT_NE(hold.exit_code, 0);
   EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
   const Result ok = run_with_config(dir, "ok.json", R"({"camera_check": {")" + key + R"(": 0}})", "--max-frames 3 ");
@@ -573,6 +582,9 @@ TEST(RunCommand, ObjectPhotometricWeightIsReadAndChecked) {
   const Result depth = run_with_config(dir, "depth.json", R"({"lifecycle": {"object_icp_noise_reference_depth_m": -1}})");
   EXPECT_NE(depth.exit_code, 0);
   EXPECT_THAT(depth.output, HasSubstr("object_icp_noise_reference_depth_m: must be >= 0")) << depth.output;
+  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
+  EXPECT_NE(takes.exit_code, 0);
+  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
   const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
   EXPECT_NE(hold.exit_code, 0);
   EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
@@ -585,6 +597,9 @@ TEST(RunCommand, MergeWindowStepIsReadAndChecked) {
   const Result bad = run_with_config(dir, "config.json", R"({"fusion": {"merge_window_step_cells": 0}})");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_THAT(bad.output, HasSubstr("merge_window_step_cells: must be 1..8")) << bad.output;
+  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
+  EXPECT_NE(takes.exit_code, 0);
+  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
   const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
   EXPECT_NE(hold.exit_code, 0);
   EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
@@ -605,11 +620,15 @@ TEST(RunCommand, SpawnEvidenceSettingsAreReadAndChecked) {
   const Result keep = run_with_config(dir, "keep.json", R"({"lifecycle": {"spawn_keep_area_fraction": 0.05}})");
   EXPECT_NE(keep.exit_code, 0);
   EXPECT_THAT(keep.output, HasSubstr("spawn_keep_area_fraction: must be in [0, spawn_min_area_fraction]")) << keep.output;
+  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
+  EXPECT_NE(takes.exit_code, 0);
+  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
   const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
   EXPECT_NE(hold.exit_code, 0);
   EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
   const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"rising_min_step_m": 0, "slide_min_shift_px": 0, "spawn_keep_area_fraction": 0,
-                                                                      "hold_spawn_candidates": false}})",
+                                                                      "hold_spawn_candidates": false},
+                                                        "costs": {"background_takes_unmodelled": false}})",
                                     "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }

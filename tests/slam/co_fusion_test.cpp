@@ -274,8 +274,10 @@ TEST_F(CoFusionScenes, SlidingThenLiftedBoxKeepsOneModelSlow) {
 // hysteresis (LifecycleParams::spawn_keep_area_fraction) and with its candidate region's
 // background pixels held from fusion (LifecycleParams::hold_spawn_candidates): measured at frame
 // 17, 5 frames after it starts (it moves under 1 mm per frame until 17; frame 21 without the hold,
-// 26 without the hysteresis); box 2 3 frames after it starts. Bounds: box 1 within issue 23's 6
-// frames (by 18), box 2 within 6 frames, the camera within 1 cm and no other object model.
+// 26 without the hysteresis); box 2 3 frames after it starts. Drift 2.7 and 4.3 mm here (box 2 5.8 by
+// `eval objects` while a cylinder behind its top was handed to it: MotionCostParams::background_takes_unmodelled).
+// Bounds: box 1 within issue 23's 6 frames (by 18), box 2 within 6 frames, each box's drift within
+// issue 23's 5 mm, the camera within 1 cm and no other object model.
 TEST_F(CoFusionScenes, ValidationSlidingBoxIsFoundSlow) {
   const synthetic::SyntheticSequence seq(
       synthetic::load_scene((source_dir() / "docs" / "validation" / "two_boxes_slow.json").string()));
@@ -290,6 +292,26 @@ TEST_F(CoFusionScenes, ValidationSlidingBoxIsFoundSlow) {
   };
   const int box1 = found_at(1, 12), box2 = found_at(2, 41);
   std::printf("  box 1 found at frame %d, box 2 at %d\n", box1, box2);
+  // Drift of each box's centre since its discovery (as expect_issue_bounds measures it), by the
+  // model that covers it best at its discovery.
+  for (const auto& [k, frame] : {std::pair{1, box1}, std::pair{2, box2}}) {
+    if (frame < 0) continue;
+    int id = 0;
+    double best = 0;
+    for (const auto& m : r.frames[size_t(frame)].active)
+      if (m.id != 0 && iou(r.gt_masks[size_t(frame)], r.frames[size_t(frame)].labels, k, m.id) > best)
+        best = iou(r.gt_masks[size_t(frame)], r.frames[size_t(frame)].labels, k, m.id), id = m.id;
+    Trajectory est;
+    for (const auto& m : r.models)
+      if (m.id == id)
+        for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T});
+    eval::ObjectTrajectoryParams drift_params;
+    drift_params.T_gt_est_world = eval::align_by_poses(seq.camera_trajectory(), r.camera);
+    const double drift_m =
+        eval::compute_object_trajectory_errors(seq.object_trajectory(k), est, drift_params).drift_translation_m.rmse;
+    std::printf("  box %d (model %d): drift %.1f mm RMSE\n", k, id, 1e3 * drift_m);
+    EXPECT_LE(drift_m, kMaxDriftM) << "box " << k;
+  }
   EXPECT_GE(box1, 12);
   EXPECT_LE(box1, 12 + kMaxDiscoveryFrames);
   EXPECT_GE(box2, 41);
