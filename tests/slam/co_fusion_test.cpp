@@ -110,8 +110,8 @@ std::set<int> object_model_ids(const SceneRun& r) {
 // object; drift of each object's centre since its discovery (issue 23: no per-object fit, in the
 // cameras' alignment) at most max_drift_m RMSE; each label's mean IoU >= min_label_iou, and their
 // mean >= 0.8, over the frames after each label's discovery allowance. Measured (2026-11-27, runs
-// are deterministic): discovery 1-6 frames (one_object's slowly starting box 6); drift 0.9-2.8 mm
-// RMSE on every scene's objects but five_objects' objects 4 and 5 (4.4 and 19.4 mm); label IoU
+// are deterministic): discovery 1-6 frames (one_object's slowly starting box 6); drift 0.9-2.6 mm
+// RMSE on every scene's objects but five_objects' objects 4 and 5 (4.2 and 18.3 mm); label IoU
 // 0.93-0.996 but handover's arm (0.76) and leave_and_return's box (0.84). The bounds are issue
 // 23's 6 frames, 5 mm and IoU 0.9.
 constexpr int kMaxDiscoveryFrames = 6;
@@ -248,7 +248,7 @@ TEST_F(CoFusionScenes, HandoverSplitsTheArmsFromTheCubeSlow) {
 // while the box is cut by the image's left border; from either start its tracking converges short
 // of the true motion, the photometric term holding back what the ICP term alone would reach.
 // Object 4, a weakly textured can turning about its axis, drifted 16 mm before objects weighed
-// colour by the terms' noise (LifecycleParams::object_photometric_weight); 4.4 mm now.
+// colour by the terms' noise (LifecycleParams::object_photometric_weight); 4.2 mm now.
 TEST_F(CoFusionScenes, FiveObjectsAreDiscoveredTrackedAndSegmentedSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("five_objects"));
   expect_issue_bounds(seq, run(seq), 0.03);
