@@ -523,12 +523,6 @@ TEST(RunCommand, SemanticConfigGroupIsReadAndChecked) {
   const Result r = run_with_config(dir, "config.json", R"({"semantic": {"join_min_iou": 1.5}})");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.output, HasSubstr("config.json: semantic: confirm_frames must be >= 1")) << r.output;
-  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
-  EXPECT_NE(takes.exit_code, 0);
-  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
-  const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
-  EXPECT_NE(hold.exit_code, 0);
-  EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
   const Result ok = run_with_config(dir, "ok.json", R"({"semantic": {"confirm_frames": 3, "join_min_iou": 0.5}})",
                                     "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
@@ -542,12 +536,6 @@ TEST(RunCommand, SpawnRigidityConfigIsReadAndChecked) {
   const Result typo = run_with_config(dir, "typo.json", R"({"lifecycle": {"spawn_rigidity": {"min_alinged_fraction": 0.5}}})");
   EXPECT_NE(typo.exit_code, 0);
   EXPECT_THAT(typo.output, HasSubstr("min_alinged_fraction")) << typo.output;
-  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
-  EXPECT_NE(takes.exit_code, 0);
-  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
-  const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
-  EXPECT_NE(hold.exit_code, 0);
-  EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
   const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"spawn_rigidity": {"enabled": false, "association_m": 0.05}}})",
                                     "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
@@ -560,13 +548,7 @@ TEST(RunCommand, KeyframeGainConfigsAreReadAndChecked) {
     EXPECT_NE(r.exit_code, 0) << key;
     EXPECT_THAT(r.output, HasSubstr(key)) << r.output;
     EXPECT_THAT(r.output, HasSubstr("in [0, 1]")) << r.output;
-    const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
-  EXPECT_NE(takes.exit_code, 0);
-  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
-  const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
-  EXPECT_NE(hold.exit_code, 0);
-  EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
-  const Result ok = run_with_config(dir, "ok.json", R"({"camera_check": {")" + key + R"(": 0}})", "--max-frames 3 ");
+    const Result ok = run_with_config(dir, "ok.json", R"({"camera_check": {")" + key + R"(": 0}})", "--max-frames 3 ");
     EXPECT_EQ(ok.exit_code, 0) << ok.output;
   }
   const Result r = run_with_config(dir, "config.json", R"({"camera_check": {"keyframe_pull_min_inliers": -1}})");
@@ -582,12 +564,6 @@ TEST(RunCommand, ObjectPhotometricWeightIsReadAndChecked) {
   const Result depth = run_with_config(dir, "depth.json", R"({"lifecycle": {"object_icp_noise_reference_depth_m": -1}})");
   EXPECT_NE(depth.exit_code, 0);
   EXPECT_THAT(depth.output, HasSubstr("object_icp_noise_reference_depth_m: must be >= 0")) << depth.output;
-  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
-  EXPECT_NE(takes.exit_code, 0);
-  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
-  const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
-  EXPECT_NE(hold.exit_code, 0);
-  EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
   const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"object_photometric_weight": 1}})", "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
@@ -597,12 +573,6 @@ TEST(RunCommand, MergeWindowStepIsReadAndChecked) {
   const Result bad = run_with_config(dir, "config.json", R"({"fusion": {"merge_window_step_cells": 0}})");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_THAT(bad.output, HasSubstr("merge_window_step_cells: must be 1..8")) << bad.output;
-  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
-  EXPECT_NE(takes.exit_code, 0);
-  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
-  const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
-  EXPECT_NE(hold.exit_code, 0);
-  EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
   const Result ok = run_with_config(dir, "ok.json", R"({"fusion": {"merge_window_step_cells": 1}})", "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }

@@ -117,6 +117,24 @@ std::set<int> object_model_ids(const SceneRun& r) {
 constexpr int kMaxDiscoveryFrames = 6;
 constexpr double kMaxDriftM = 0.005;
 constexpr double kMinLabelIou = 0.9;
+
+// Model `id`'s trajectory, timestamped as the sequence's frames.
+Trajectory model_trajectory(const synthetic::SyntheticSequence& seq, const SceneRun& r, int id) {
+  Trajectory est;
+  for (const auto& m : r.models)
+    if (m.id == id)
+      for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T});
+  return est;
+}
+
+// Object k's errors as `est` tracks it; drift since discovery in the world alignment of the camera
+// trajectories (as `eval objects`).
+eval::ObjectTrajectoryErrors object_errors(const synthetic::SyntheticSequence& seq, const SceneRun& r, int k,
+                                           const Trajectory& est) {
+  eval::ObjectTrajectoryParams drift_params;
+  drift_params.T_gt_est_world = eval::align_by_poses(seq.camera_trajectory(), r.camera);
+  return eval::compute_object_trajectory_errors(seq.object_trajectory(k), est, drift_params);
+}
 void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun& r, double max_drift_m = kMaxDriftM,
                          double min_label_iou = kMinLabelIou) {
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
@@ -170,11 +188,11 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
 
   // Per-object trajectories: the object's ground-truth origin carried by T_world_model.
   for (const auto& [k, id] : model_of) {
-    Trajectory est;
+    const Trajectory est = model_trajectory(seq, r, id);
     std::set<int> tracked;
     for (const auto& m : r.models)
       if (m.id == id)
-        for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T}), tracked.insert(f);
+        for (const auto& [f, T] : m.trajectory) tracked.insert(f);
     // Tracked in most frames since its discovery in which it covers at least 1% of the image (an
     // object that leaves soon after it is told apart has a short trajectory).
     int in_view = 0, tracked_in_view = 0;
@@ -184,10 +202,7 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
     ASSERT_GE(est.size(), 8u) << "model " << id;
     EXPECT_GE(3 * tracked_in_view, 2 * in_view) << "model " << id << " tracked in " << tracked_in_view << " of "
                                                 << in_view << " frames in which object " << k << " is in view";
-    // Drift since discovery, in the world alignment of the camera trajectories (as `eval objects`).
-    eval::ObjectTrajectoryParams drift_params;
-    drift_params.T_gt_est_world = eval::align_by_poses(seq.camera_trajectory(), r.camera);
-    const auto errors = eval::compute_object_trajectory_errors(seq.object_trajectory(k), est, drift_params);
+    const auto errors = object_errors(seq, r, k, est);
     ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_ate_m", std::to_string(errors.tracked_point_m.rmse));
     ::testing::Test::RecordProperty("object_" + std::to_string(k) + "_drift_m",
                                     std::to_string(errors.drift_translation_m.rmse));
@@ -284,31 +299,21 @@ TEST_F(CoFusionScenes, ValidationSlidingBoxIsFoundSlow) {
   const SceneRun r = run(seq);
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.01);
-  const auto found_at = [&](int k, int from) {  // first frame a model covers object k with IoU >= 0.5
+  // The first frame (and model) at which a model covers object k with IoU >= 0.5; -1 if none.
+  const auto found_at = [&](int k, int from) {
     for (int f = from; f < seq.size(); ++f)
       for (const auto& m : r.frames[size_t(f)].active)
-        if (m.id != 0 && iou(r.gt_masks[size_t(f)], r.frames[size_t(f)].labels, k, m.id) >= 0.5) return f;
-    return -1;
+        if (m.id != 0 && iou(r.gt_masks[size_t(f)], r.frames[size_t(f)].labels, k, m.id) >= 0.5)
+          return std::pair{f, m.id};
+    return std::pair{-1, 0};
   };
-  const int box1 = found_at(1, 12), box2 = found_at(2, 41);
+  const auto [box1, model1] = found_at(1, 12);
+  const auto [box2, model2] = found_at(2, 41);
   std::printf("  box 1 found at frame %d, box 2 at %d\n", box1, box2);
-  // Drift of each box's centre since its discovery (as expect_issue_bounds measures it), by the
-  // model that covers it best at its discovery.
-  for (const auto& [k, frame] : {std::pair{1, box1}, std::pair{2, box2}}) {
-    if (frame < 0) continue;
-    int id = 0;
-    double best = 0;
-    for (const auto& m : r.frames[size_t(frame)].active)
-      if (m.id != 0 && iou(r.gt_masks[size_t(frame)], r.frames[size_t(frame)].labels, k, m.id) > best)
-        best = iou(r.gt_masks[size_t(frame)], r.frames[size_t(frame)].labels, k, m.id), id = m.id;
-    Trajectory est;
-    for (const auto& m : r.models)
-      if (m.id == id)
-        for (const auto& [f, T] : m.trajectory) est.push_back({seq.timestamp_s(f), T});
-    eval::ObjectTrajectoryParams drift_params;
-    drift_params.T_gt_est_world = eval::align_by_poses(seq.camera_trajectory(), r.camera);
-    const double drift_m =
-        eval::compute_object_trajectory_errors(seq.object_trajectory(k), est, drift_params).drift_translation_m.rmse;
+  // Drift of each box's centre since its discovery, by the model that found it.
+  for (const auto& [k, id] : {std::pair{1, model1}, std::pair{2, model2}}) {
+    if (id == 0) continue;  // not found: the bounds below fail
+    const double drift_m = object_errors(seq, r, k, model_trajectory(seq, r, id)).drift_translation_m.rmse;
     std::printf("  box %d (model %d): drift %.1f mm RMSE\n", k, id, 1e3 * drift_m);
     EXPECT_LE(drift_m, kMaxDriftM) << "box " << k;
   }
