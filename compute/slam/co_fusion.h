@@ -108,13 +108,14 @@ struct LifecycleParams {
   // object that starts slowly makes a region that hovers about the threshold, above it in one
   // frame and below in the next). 0 = both frames need spawn_min_area_fraction.
   double spawn_keep_area_fraction = 0.015;
-  // The pixels the segmentation gave the background inside a spawn-sized candidate region (one
-  // that covers spawn_min_area_fraction and did not spawn this frame) belong to no model for this
-  // frame: the background neither fuses them nor, in the next frame, tracks with them. An object
-  // that starts slowly is otherwise absorbed: the background fuses the pixels its motion does not
-  // yet push over the outlier cost, fits the object's new place within a frame or two, and its
-  // region vanishes before it is confirmed. They are not unclaimed pixels (which the camera tracks
-  // with when they cover much of the image): the camera would follow the object.
+  // The pixels the segmentation gave the background inside a candidate region (an outlier region
+  // that covers spawn_keep_area_fraction, so that it may take part in a spawn, and did not spawn
+  // this frame) belong to no model for this frame: the background neither fuses them nor, in the
+  // next frame, tracks with them. An object that starts slowly is otherwise absorbed: the
+  // background fuses the pixels its motion does not yet push over the outlier cost, fits the
+  // object's new place within a frame or two, and its region shrinks or vanishes before it is
+  // confirmed. They are not unclaimed pixels (which the camera tracks with when they cover much of
+  // the image): the camera would follow the object.
   bool hold_spawn_candidates = true;
   // ... once the background has been fused for this many frames (its model and the camera pose
   // must be stable first, paper section III).

@@ -509,7 +509,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
                     100.0 * double(pixels.size()) / double(n), 100.0 * *rigid);
       out.events.push_back("frame " + std::to_string(frame_) + ": " + what);
     }
-    if (large && p.hold_spawn_candidates) plan.held.push_back(r);
+    if (p.hold_spawn_candidates) plan.held.push_back(r);
     if (spawn_candidates_.size() < 254) {  // a candidate for the next frame
       spawn_candidates_.push_back({centroid, large});
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidates_.size());

@@ -287,15 +287,20 @@ TEST_F(CoFusionScenes, SlidingThenLiftedBoxKeepsOneModelSlow) {
 // Box 1 is found only with the previous frame's evidence (LifecycleParams::slide_*; never without
 // it) and, since its outlier region hovers about the spawn threshold, sooner with the spawn's
 // hysteresis (LifecycleParams::spawn_keep_area_fraction) and with its candidate region's
-// background pixels held from fusion (LifecycleParams::hold_spawn_candidates): measured at frame
-// 17, 5 frames after it starts (it moves under 1 mm per frame until 17; frame 21 without the hold,
-// 26 without the hysteresis); box 2 3 frames after it starts. Drift 2.7 and 4.3 mm here (box 2 5.8 by
-// `eval objects` while a cylinder behind its top was handed to it: MotionCostParams::background_takes_unmodelled).
-// Bounds: box 1 within issue 23's 6 frames (by 18), box 2 within 6 frames, each box's drift within
-// issue 23's 5 mm, the camera within 1 cm and no other object model.
-TEST_F(CoFusionScenes, ValidationSlidingBoxIsFoundSlow) {
+// background pixels held from fusion in every candidate region (LifecycleParams::hold_spawn_candidates):
+// measured at frame 16, 4 frames after it starts, with the scene's noise and with noise seed 4 (it
+// moves under 1 mm per frame until 17; with seed 4 frame 26 when only regions over 3 % were held,
+// its region then hovering at 2.6-3.0 % for six frames; frame 21 without the hold, 26 without the
+// hysteresis); box 2 3 frames after it starts. Drift 2.9 and 4.7 mm here (box 2 5.8 by `eval
+// objects` while a cylinder behind its top was handed to it:
+// MotionCostParams::background_takes_unmodelled). Bounds: box 1 within issue 23's 6 frames (by
+// 18), box 2 within 6 frames, each box's drift within issue 23's 5 mm, the camera within 1 cm and
+// no other object model.
+class ValidationScene : public CoFusionScenes, public ::testing::WithParamInterface<unsigned> {};
+
+TEST_P(ValidationScene, SlidingBoxIsFoundSlow) {
   const synthetic::SyntheticSequence seq(
-      synthetic::load_scene((source_dir() / "docs" / "validation" / "two_boxes_slow.json").string()));
+      synthetic::load_scene((source_dir() / "docs" / "validation" / "two_boxes_slow.json").string()), GetParam());
   const SceneRun r = run(seq);
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.01);
@@ -323,6 +328,9 @@ TEST_F(CoFusionScenes, ValidationSlidingBoxIsFoundSlow) {
   EXPECT_LE(box2, 41 + kMaxDiscoveryFrames);
   EXPECT_EQ(object_model_ids(r).size(), 2u);
 }
+// Noise seed 0: the scene's own.
+INSTANTIATE_TEST_SUITE_P(NoiseSeeds, ValidationScene, ::testing::Values(0u, 4u),
+                         [](const ::testing::TestParamInfo<unsigned>& seed) { return "Seed" + std::to_string(seed.param); });
 
 // Objects carried into the view fast (table_placement's ball: 3.4 cm per frame) move out of the
 // pixels a new model is masked to before it is first tracked. Its first tracking starts from the
