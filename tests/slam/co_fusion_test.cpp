@@ -260,8 +260,9 @@ TEST_F(CoFusionScenes, HandoverSplitsTheArmsFromTheCubeSlow) {
 //
 // Object 5 still drifts (issue 23, open): its model slips by 3-4 cm at frames 40-42, where its
 // motion reverses at once (from lifting to carrying down: 1.8 cm from the constant-velocity guess)
-// while the box is cut by the image's left border; from either start its tracking converges short
-// of the true motion, the photometric term holding back what the ICP term alone would reach.
+// while the box is cut by the image's left border; from any start its tracking converges to the
+// same wrong pose, set by the outline term (7 mm without it, but table_placement's box then
+// drifts 54 mm; docs/experiments.md).
 // Object 4, a weakly textured can turning about its axis, drifted 16 mm before objects weighed
 // colour by the terms' noise (LifecycleParams::object_photometric_weight); 4.2 mm now.
 TEST_F(CoFusionScenes, FiveObjectsAreDiscoveredTrackedAndSegmentedSlow) {
