@@ -947,6 +947,7 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
 // background-only run does not do.
 void CoFusion::label_all_background(const float* depth_m, const std::vector<uint8_t>& excluded) {
   for (size_t i = 0; i < slots_.size(); ++i) slots_[i] = depth_m[i] > 0.0f ? 0 : kNoSlot;
+  unexplained_slots_.clear();
   mark_excluded(excluded, kMoverSlot, slots_);
   if (params_.motion_segmentation) upload_labels(slots_);
   live_models().front()->pixels = static_cast<int>(std::count(slots_.begin(), slots_.end(), uint8_t{0}));
@@ -980,8 +981,11 @@ void CoFusion::keep_frame(CameraState camera, const FrameEncoding& encoding, con
   out.labels.assign(n, 0xFFFF);
   if (camera != CameraState::kLost)
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t i = r.begin(); i < r.end(); ++i)
-        out.labels[i] = slots_[i] < kMoverSlot ? slot_to_id[slots_[i]] : uint16_t{0xFFFF};
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        // A pixel the segmentation gave to a model that does not explain it is still that model's.
+        const uint8_t slot = slots_[i] == kNoSlot && unexplained_slots_.size() == n ? unexplained_slots_[i] : slots_[i];
+        out.labels[i] = slot < kMoverSlot ? slot_to_id[slot] : uint16_t{0xFFFF};
+      }
     });
   if (superpixels) segmentation::label_depthless_pixels(out.labels, *superpixels, depth_m, uint16_t{0xFFFF}, excluded);
   // A keyframe's features are stored as world points, so only what stands still gives them: the

@@ -371,7 +371,8 @@ struct CoFusionFrame {
   std::vector<ModelStatus> active;  // after this frame's lifecycle changes; background first
   std::vector<std::string> events;  // one line each: spawned, merged, deactivated, re-activated, re-found, deleted
   // Per pixel: model id, 0xFFFF = no model (unassigned, excluded, or no depth). Pixels without
-  // depth take the model of most of their superpixel's pixels with depth (motion segmentation).
+  // depth take the model of most of their superpixel's pixels with depth (motion segmentation);
+  // pixels the segmentation gave to a model whose motion does not explain them are that model's.
   std::vector<uint16_t> labels;
   std::vector<std::pair<std::string, double>> stage_ms;  // wall-clock per stage, in order
   // CPU segmentation: superpixels (run while the GPU tracks) and the rest (after tracking).
@@ -588,6 +589,11 @@ class CoFusion {
   int agreeing_refusals_ = 0;
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
+  // Per pixel, the slot of the model the segmentation gave it to where that model's motion does not
+  // explain it (its cost is over MotionCostParams::max_explained_cost_m: a texture edge the fused
+  // model shows blurred, say), else kNoSlot. Such a pixel is neither fused nor tracked with (its
+  // slot is kNoSlot) but is the model's in the reported segmentation (CoFusionFrame::labels).
+  std::vector<uint8_t> unexplained_slots_;
   double unclaimed_fraction_ = 0;  // of the previous frame's pixels
   // This frame's share of pixels (not movers') that the background's prediction covers but does not
   // explain: the bar a resting model's own share is measured against (SemanticParams).

@@ -116,6 +116,7 @@ std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::Segme
   const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
   const uint8_t outlier = static_cast<uint8_t>(order.size());
   std::vector<uint8_t> slots(n, kNoSlot);
+  unexplained_slots_.resize(n);
   const float max_cost = params_.costs.max_explained_cost_m;
   const bool takes_unmodelled = params_.costs.background_takes_unmodelled;
   // Per model: pixels the segmentation gave it, and of those the ones its motion explains (counts
@@ -132,9 +133,12 @@ std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::Segme
           depth_m[i] > 0.0f && costs[0][i] <= max_cost)
         l = 0;  // MotionCostParams::background_takes_unmodelled (order[0] is the background)
       if (l < outlier) ++labelled[l];
+      unexplained_slots_[i] = kNoSlot;
       if (l < outlier && !(costs[l][i] > max_cost)) {
         slots[i] = static_cast<uint8_t>(order[l]->slot);
         ++explained[l];
+      } else if (l < outlier) {
+        unexplained_slots_[i] = static_cast<uint8_t>(order[l]->slot);
       } else if (l == outlier || (l == segmentation::kNoLabel && depth_m[i] > 0.0f)) {
         slots[i] = kUnclaimedSlot;
       }
