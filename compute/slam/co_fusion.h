@@ -205,14 +205,10 @@ struct LifecycleParams {
   // colour (a wall patch at 3.7 m tracked by its plane alone slides along it). 0 = unweighted.
   double object_icp_noise_reference_depth_m = 1.0;
   // Object models' Gauss-Newton iterations per level (TrackerParams::iterations_per_level; the
-  // background's default is {1, 4, 6, 10}). Objects are small, so their iterations are cheap (2 ms
-  // each at full resolution on lavapipe), and they need them: with fewer, each frame stops short of
-  // the optimum and the shortfall builds up as drift while an object moves, most along a direction
-  // only weak texture constrains (a lifted, turning box with a striped face). At full resolution 6,
-  // not 8: more converged poses win the rest test (RestParams) against staying still less often, and
-  // a resting object jitters (docs/experiments.md, "Objects that lag behind their motion" and
-  // "Full-resolution iterations for objects").
-  std::vector<int> object_iterations_per_level = {6, 8, 12, 20};
+  // background's default is {1, 4, 6, 10}). Objects are small, so their iterations are cheap (3 ms
+  // at full resolution), and they need them: with fewer, each frame stops short of the optimum and
+  // the shortfall builds up as drift while an object moves (docs/experiments.md, "Objects that lag behind their motion").
+  std::vector<int> object_iterations_per_level = {4, 8, 12, 20};
 
   // Non-rigid movers (a walking person, a waving arm) are no rigid objects. A new object model is
   // on trial for its first rigidity_trial_frames frames; a frame counts against it when its
