@@ -398,8 +398,10 @@ TEST_F(CoFusionScenes, FastEnteringObjectIsTrackedByOneModelSlow) {
 TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("leave_and_return"));
   const SceneRun r = run(seq);
-  // The box's label is 0 in the frames it is half out of view and before it is re-activated: 0.87.
-  expect_issue_bounds(seq, r, kMaxDriftM, 0.8);
+  // The box's label is 0 in the frames it is half out of view and before it is re-activated: 0.87
+  // (0.84 while the pixels its motion does not explain, at its checker's edges, were reported as
+  // no model's: the bound holds that rule).
+  expect_issue_bounds(seq, r, kMaxDriftM, 0.85);
 
   const std::set<int> object_models = object_model_ids(r);
   ASSERT_EQ(object_models.size(), 1u) << "one model for the box, before and after it was away";
