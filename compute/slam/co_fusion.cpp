@@ -979,11 +979,12 @@ void CoFusion::keep_frame(CameraState camera, const FrameEncoding& encoding, con
   for (const Model* m : live_models()) slot_to_id[m->slot] = static_cast<uint16_t>(m->id);
   const size_t n = slots_.size();
   out.labels.assign(n, 0xFFFF);
+  // A pixel the segmentation gave to a model that does not explain it is still that model's.
+  const bool unexplained = unexplained_slots_.size() == n;
   if (camera != CameraState::kLost)
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i < r.end(); ++i) {
-        // A pixel the segmentation gave to a model that does not explain it is still that model's.
-        const uint8_t slot = slots_[i] == kNoSlot && unexplained_slots_.size() == n ? unexplained_slots_[i] : slots_[i];
+        const uint8_t slot = unexplained && slots_[i] == kNoSlot ? unexplained_slots_[i] : slots_[i];
         out.labels[i] = slot < kMoverSlot ? slot_to_id[slot] : uint16_t{0xFFFF};
       }
     });

@@ -497,7 +497,7 @@ class CoFusion {
   std::vector<uint8_t> slots_from_segmentation(const segmentation::SegmentationResult& seg,
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
                                                const std::vector<Model*>& order, CoFusionFrame& out);
-  static void relabel(std::vector<uint8_t>& slots, int from, int to);
+  void relabel(std::vector<uint8_t>& slots, int from, int to);
   void merge_static_newcomers(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
   void merge_comoving(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
   static void hold_candidates(const SpawnPlan& plan, int background_slot, std::vector<uint8_t>& slots,

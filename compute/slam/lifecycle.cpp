@@ -154,9 +154,12 @@ std::vector<uint8_t> CoFusion::slots_from_segmentation(const segmentation::Segme
   return slots;
 }
 
+// Also in unexplained_slots_, so that the reported labels follow a merge (the freed slot may be
+// taken by a new model in the same frame).
 void CoFusion::relabel(std::vector<uint8_t>& slots, int from, int to) {
-  for (auto& s : slots)
-    if (s == from) s = static_cast<uint8_t>(to);
+  for (std::vector<uint8_t>* v : {&slots, &unexplained_slots_})
+    for (auto& s : *v)
+      if (s == from) s = static_cast<uint8_t>(to);
 }
 
 // A young model that has not moved relative to the background within its probation is no object:
