@@ -180,6 +180,8 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("spawn_max_area_fraction", c.spawn_max_area_fraction)
       .field("background_tracks_unclaimed_above", c.background_tracks_unclaimed_above)
       .field("max_active_models", c.max_active_models)
+      .field("coast_frames", c.coast_frames)
+      .field("coast_border_px", c.coast_border_px)
       .field("deactivate_after_frames", c.deactivate_after_frames)
       .field("min_stable_surfels", c.min_stable_surfels)
       .field("probation_frames", c.probation_frames)
@@ -250,7 +252,8 @@ void read_segmentation(Section& s, segmentation::MotionSegmentationParams& c) {
       .field("outlier_threshold", c.outlier_threshold)
       .field("outlier_slope", c.outlier_slope)
       .field("outlier_min_energy", c.outlier_min_energy)
-      .field("min_component_px", c.min_component_px);
+      .field("min_component_px", c.min_component_px)
+      .field("min_object_component_px", c.min_object_component_px);
   s.section("slic", s.where() + ".slic", [&](Section& q) {
     q.field("superpixel_size_px", c.slic.superpixel_size_px)
         .field("compactness", c.slic.compactness)

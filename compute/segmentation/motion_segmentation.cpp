@@ -228,6 +228,7 @@ MotionSegmenter::MotionSegmenter(MotionSegmentationParams params) : params_(std:
   if (!std::isfinite(p.outlier_threshold) || !non_negative(p.outlier_slope) || !non_negative(p.outlier_min_energy))
     throw Error("motion segmentation: outlier energy parameters must be finite (slope and minimum >= 0)");
   if (p.min_component_px < 0) throw Error("motion segmentation: min_component_px must be >= 0");
+  if (p.min_object_component_px < 0) throw Error("motion segmentation: min_object_component_px must be >= 0");
   // Parameter checks of SLIC and the CRF happen on first use; run the CRF's now on an empty set.
   DenseCrf probe;
   probe.set_nodes({}, p.crf);
@@ -417,8 +418,9 @@ void MotionSegmenter::postprocess(std::vector<uint8_t>& labels, int width, int h
   std::vector<uint8_t> keep(comps.size(), 1);
   for (size_t i = 0; i < comps.size(); ++i) {
     const int v = comps[i].value;
-    if (comps[i].pixels < params_.min_component_px) keep[i] = 0;
-    if (v != 0 && v != outlier && largest[static_cast<size_t>(v)] != static_cast<int32_t>(i)) keep[i] = 0;
+    const bool object = v != 0 && v != outlier;
+    if (comps[i].pixels < (object ? params_.min_object_component_px : params_.min_component_px)) keep[i] = 0;
+    if (object && largest[static_cast<size_t>(v)] != static_cast<int32_t>(i)) keep[i] = 0;
   }
   detail::for_range(static_cast<int64_t>(components_.runs.size()), 1024, [&](int64_t a, int64_t e) {
     for (int64_t i = a; i < e; ++i) {

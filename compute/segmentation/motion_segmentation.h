@@ -62,6 +62,10 @@ struct MotionSegmentationParams {
   // Components (4-connected, per label) smaller than this many pixels are removed (kNoLabel).
   // 1000 px = 0.33% of a 640x480 frame, about 4 superpixels of 16x16.
   int min_component_px = 1000;
+  // An object's one component (its largest) is removed only below this many pixels: it is the
+  // tracked object, not a candidate, and where the object leaves the view at the image's edge it is
+  // a sliver of a few hundred pixels (handover's arm: 749, then 116). Below this it is noise.
+  int min_object_component_px = 64;
 };
 
 struct SegmentationResult {

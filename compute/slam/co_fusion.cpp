@@ -110,10 +110,10 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
     throw Error("relocalisation: candidate_keyframes and settle_frames must be >= 0, recent_frames >= 1, "
                 "min_inlier_ratio_rel >= 0, max_rms_rel > 0, tracking_passes >= 1");
   const LifecycleParams& life = params.lifecycle;
-  if (life.rigidity_trial_frames < 0 || life.rigidity_max_failures < 1 ||
+  if (life.rigidity_trial_frames < 0 || life.rigidity_max_failures < 1 || life.coast_frames < 0 || life.coast_border_px < 0 ||
       !(life.rigid_min_explained_fraction >= 0 && life.rigid_min_explained_fraction <= 1) ||
       !(life.mover_min_overlap > 0 && life.mover_min_overlap <= 1))
-    throw Error("lifecycle: rigidity_trial_frames must be >= 0, rigidity_max_failures >= 1, "
+    throw Error("lifecycle: rigidity_trial_frames, coast_frames and coast_border_px must be >= 0, rigidity_max_failures >= 1, "
                 "rigid_min_explained_fraction in [0, 1], mover_min_overlap in (0, 1]");
   const SemanticParams& sem = params.semantic;
   if (sem.confirm_frames < 1 || !(sem.min_instance_area_fraction >= 0 && sem.min_instance_area_fraction < 1) ||
@@ -363,7 +363,15 @@ void CoFusion::settle_models(const std::vector<Model*>& models, const Eigen::Iso
       rest_if_still_fits(*testing[k], camera_motion, Tracker::add_partials(partials[k], groups[k]));
   }
   for (Model* m : models) {
-    m->last_motion = m->tracking.failed ? Eigen::Isometry3d::Identity() : m->velocity_motion.value_or(m->motion);
+    const PixelRect& r = m->track_rect;
+    const int border = params_.lifecycle.coast_border_px;
+    const bool at_border = r.x0 <= border || r.y0 <= border || r.x1 >= intrinsics_.width - border ||
+                           r.y1 >= intrinsics_.height - border;
+    const bool coast = m->tracking.failed && m->id != 0 && m->pixels > 0 && !r.empty() && at_border &&
+                       m->coasted_frames < params_.lifecycle.coast_frames;
+    m->coasted_frames = m->tracking.failed ? m->coasted_frames + 1 : 0;
+    if (!coast)
+      m->last_motion = m->tracking.failed ? Eigen::Isometry3d::Identity() : m->velocity_motion.value_or(m->motion);
     m->T_prediction_live = m->motion;
   }
   if (params_.motion_segmentation) compute_residuals(models);

@@ -144,6 +144,13 @@ struct LifecycleParams {
   // Active models at most, background included (the label map has 30 model slots; each model
   // costs a prediction, a tracking run and a fusion per frame).
   int max_active_models = 8;
+  // An object leaving the view whose tracking fails (a sliver at the image's edge, too few pixels
+  // for the tracker's minimum) keeps moving by its last motion, as the next frame's guess, for up
+  // to coast_frames consecutive failed frames, so its last pixels stay its own; then, and for an
+  // object not at the edge, the guess is no motion. At the edge: its labelled pixels' bounding
+  // rectangle within coast_border_px of the image's border.
+  int coast_frames = 3;
+  int coast_border_px = 8;
   // A model whose label is absent this many consecutive frames becomes inactive ...
   int deactivate_after_frames = 10;
   // ... and is kept (inactive) only with at least this many stable surfels, else deleted.

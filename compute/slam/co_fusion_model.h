@@ -158,6 +158,7 @@ struct CoFusion::Model {
   int first_frame;
   int last_frame;
   int unseen_frames = 0;
+  int coasted_frames = 0;  // consecutive failed trackings it kept its last motion for (coast_frames)
   bool on_probation = true;  // objects: not yet shown to move relative to the background
   // A model spawned from an instance mask that has not been seen to move (SemanticParams::
   // resting_max_unexplained_fraction): it keeps its world pose without being tracked, and the

@@ -186,6 +186,34 @@ TEST(MotionSegmentation, PostprocessingKeepsLargestObjectComponentAndRemovesSmal
   EXPECT_EQ(r.model_pixels[0], 1200 - 100 - 9 - 4 - 9 + 80);
 }
 
+// An object's one component is the tracked object, not a candidate: a sliver at the image's edge
+// stays the object's down to min_object_component_px, while an outlier region of the same size is
+// below min_component_px and removed.
+TEST(MotionSegmentation, PostprocessingKeepsAnObjectsSliverButNotAnOutliersOfTheSameSize) {
+  const int w = 40, h = 20;
+  std::vector<uint8_t> labels(static_cast<size_t>(w * h), 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < 4; ++x) labels[static_cast<size_t>(y * w + x)] = 1;  // object sliver, 80 px
+  for (int y = 5; y < 15; ++y)
+    for (int x = 20; x < 28; ++x) labels[static_cast<size_t>(y * w + x)] = 2;  // outlier, 80 px
+  MotionSegmentationParams p;
+  p.min_component_px = 1000;
+  p.min_object_component_px = 64;
+  SegmentationResult r;
+  std::vector<uint8_t> out = labels;
+  MotionSegmenter{p}.postprocess(out, w, h, 2, r);
+  EXPECT_EQ(r.model_pixels[1], 80);
+  EXPECT_TRUE(r.outlier_components.empty());
+  EXPECT_EQ(out[static_cast<size_t>(10 * w + 24)], kNoLabel);
+  EXPECT_EQ(out[static_cast<size_t>(10 * w + 2)], 1);
+
+  p.min_object_component_px = 81;  // one pixel more than the sliver: it goes too
+  out = labels;
+  MotionSegmenter{p}.postprocess(out, w, h, 2, r);
+  EXPECT_EQ(r.model_pixels[1], 0);
+  EXPECT_EQ(out[static_cast<size_t>(10 * w + 2)], kNoLabel);
+}
+
 TEST(MotionSegmentation, PostprocessingRejectsUnknownLabels) {
   std::vector<uint8_t> labels(16, 3);
   SegmentationResult r;
