@@ -109,11 +109,12 @@ std::set<int> object_model_ids(const SceneRun& r) {
 // (separable_from); no other object model lives more than 10 frames; tracked-point ATE <= 1 cm per
 // object; drift of each object's centre since its discovery (issue 23: no per-object fit, in the
 // cameras' alignment) at most max_drift_m RMSE; each label's mean IoU >= min_label_iou, and their
-// mean >= 0.8, over the frames after each label's discovery allowance. Measured (2026-11-27, runs
-// are deterministic): discovery 1-6 frames (one_object's slowly starting box 6); drift 0.9-2.6 mm
-// RMSE on every scene's objects but five_objects' objects 4 and 5 (4.2 and 18.3 mm); label IoU
-// 0.94-0.999 but handover's arm (0.77) and leave_and_return's box (0.87). The bounds are issue
-// 23's 6 frames, 5 mm and IoU 0.9.
+// mean >= 0.8, over the frames after each label's discovery allowance (and its re-discovery's,
+// for an object that comes back into view). Measured (2026-11-27, runs are deterministic):
+// discovery 1-6 frames (one_object's slowly starting box 6); drift 0.9-2.6 mm RMSE on every
+// scene's objects but five_objects' objects 4 and 5 (4.2 and 18.3 mm); label IoU 0.93-0.999
+// (leave_and_return's box 0.925, 0.875 with the frames before its re-discovery). The bounds are
+// issue 23's 6 frames, 5 mm and IoU 0.9.
 constexpr int kMaxDiscoveryFrames = 6;
 constexpr double kMaxDriftM = 0.005;
 constexpr double kMinLabelIou = 0.9;
@@ -149,11 +150,11 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
   // Discovery: a model covering the object (IoU >= 0.5) within kMaxDiscoveryFrames of it being separable.
   std::map<int, int> model_of;  // gt object id -> model id
   std::map<int, int> start_of, discovered_at;
+  const int spawn_pixels = int(slam::LifecycleParams{}.spawn_min_area_fraction * double(r.gt_masks[0].total()));
   for (int k = 1; k <= seq.object_count(); ++k) {
     // An object carried in from outside the view can be discovered only once it is in view, and
     // by the paper's rule only once it covers the spawn threshold (3% of the image): an arm
     // reaching in from the border takes 15 frames to get there.
-    const int spawn_pixels = int(slam::LifecycleParams{}.spawn_min_area_fraction * double(r.gt_masks[0].total()));
     int visible = 0;
     while (visible < seq.size() && cv::countNonZero(r.gt_masks[size_t(visible)] == k) < spawn_pixels) ++visible;
     const int start = std::max(separable_from(seq, k), visible);
@@ -215,22 +216,57 @@ void expect_issue_bounds(const synthetic::SyntheticSequence& seq, const SceneRun
 
   // Segmentation: mean per-label IoU (Hungarian matching per frame) over the frames after each
   // label's discovery allowance (10 frames after its motion starts; the background from the first).
+  // An object that leaves the view and comes back is discovered again (issue 23: "or after it comes
+  // into view"): the frames from its return until 10 frames after it covers the spawn threshold
+  // again do not count either (they are printed apart).
   int first_start = seq.size();
   for (const auto& [k, s] : start_of) first_start = std::min(first_start, s);
-  std::map<int, std::vector<double>> per_label;
+  std::map<int, std::vector<std::pair<int, int>>> returns;  // per object: [back in view, allowance end)
+  for (const auto& [k, start] : start_of) {
+    const auto pixels = [&](int f) { return cv::countNonZero(r.gt_masks[size_t(f)] == k); };
+    bool away = false;
+    for (int f = start; f < seq.size(); ++f) {
+      if (pixels(f) == 0) {
+        away = true;
+      } else if (away) {
+        int covers = f;
+        while (covers < seq.size() && pixels(covers) < spawn_pixels) ++covers;
+        returns[k].emplace_back(f, covers + 10);
+        away = false;
+        f = covers;
+      }
+    }
+  }
+  const auto returning = [&](int k, int f) {
+    for (const auto& [from, to] : returns[k])
+      if (f >= from && f < to) return true;
+    return false;
+  };
+  std::map<int, std::vector<double>> per_label, all_frames;
   for (int f = first_start + 10; f < seq.size(); ++f) {
     cv::Mat est(seq.intrinsics().height, seq.intrinsics().width, CV_16UC1,
                 const_cast<uint16_t*>(r.frames[size_t(f)].labels.data()));
     const auto frame = eval::evaluate_segmentation_frame(r.gt_masks[size_t(f)], est);
-    for (const auto& l : frame.gt_labels)
-      if (l.gt_label == 0 || f >= start_of[l.gt_label] + 10) per_label[l.gt_label].push_back(l.iou);
+    for (const auto& l : frame.gt_labels) {
+      if (l.gt_label != 0 && f < start_of[l.gt_label] + 10) continue;
+      all_frames[l.gt_label].push_back(l.iou);
+      if (l.gt_label == 0 || !returning(l.gt_label, f)) per_label[l.gt_label].push_back(l.iou);
+    }
   }
+  const auto mean_of = [](const std::vector<double>& v) {
+    double mean = 0;
+    for (double x : v) mean += x / double(v.size());
+    return mean;
+  };
   double sum = 0;
   for (const auto& [label, ious] : per_label) {
-    double mean = 0;
-    for (double v : ious) mean += v / double(ious.size());
+    const double mean = mean_of(ious);
     ::testing::Test::RecordProperty("label_" + std::to_string(label) + "_iou", std::to_string(mean));
-    std::printf("  label %d: mean IoU %.3f over %zu frames\n", label, mean, ious.size());
+    std::printf("  label %d: mean IoU %.3f over %zu frames", label, mean, ious.size());
+    if (all_frames[label].size() != ious.size())
+      std::printf(" (%.3f over %zu with the frames before its re-discovery)", mean_of(all_frames[label]),
+                  all_frames[label].size());
+    std::printf("\n");
     EXPECT_GE(mean, min_label_iou) << "label " << label;
     sum += mean;
   }
@@ -250,7 +286,7 @@ TEST_F(CoFusionScenes, TwoMovingObjectsAreDiscoveredTrackedAndSegmentedSlow) {
 TEST_F(CoFusionScenes, HandoverSplitsTheArmsFromTheCubeSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("handover"));
   const SceneRun r = run(seq);
-  expect_issue_bounds(seq, r, kMaxDriftM, 0.7);  // arm A's label: 9 frames after its allowance, 0.77
+  expect_issue_bounds(seq, r);
   EXPECT_EQ(object_model_ids(r).size(), 3u) << "one model per moving body";
   for (const auto& e : r.events) EXPECT_EQ(e.find("merged"), std::string::npos) << e;
 }
@@ -398,10 +434,7 @@ TEST_F(CoFusionScenes, FastEnteringObjectIsTrackedByOneModelSlow) {
 TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
   const synthetic::SyntheticSequence seq(synthetic::load_scene("leave_and_return"));
   const SceneRun r = run(seq);
-  // The box's label is 0 in the frames it is half out of view and before it is re-activated: 0.87
-  // (0.84 while the pixels its motion does not explain, at its checker's edges, were reported as
-  // no model's: the bound holds that rule).
-  expect_issue_bounds(seq, r, kMaxDriftM, 0.85);
+  expect_issue_bounds(seq, r);
 
   const std::set<int> object_models = object_model_ids(r);
   ASSERT_EQ(object_models.size(), 1u) << "one model for the box, before and after it was away";
@@ -413,7 +446,7 @@ TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
   EXPECT_TRUE(has_event("model " + std::to_string(id) + " left the view")) << "it must have gone inactive";
   EXPECT_TRUE(has_event("re-activated model " + std::to_string(id)));
 
-  // Covered again within 10 frames of its first pixels back in the view, and from then to the end.
+  // Covered again soon after it is back in the view, and from then to the end.
   const int box = 1;
   const auto visible = [&](int f) { return cv::countNonZero(r.gt_masks[size_t(f)] == box) > 0; };
   int back = 0;
@@ -427,8 +460,14 @@ TEST_F(CoFusionScenes, ReturningObjectIsReactivatedNotDuplicatedSlow) {
     covered += c && first_covered >= 0;
   }
   ASSERT_GE(first_covered, 0);
-  std::printf("  back in view at frame %d, covered from %d\n", back, first_covered);
-  EXPECT_LE(first_covered - back, 10);
+  // Re-discovered as an object coming into view is discovered: within kMaxDiscoveryFrames of it
+  // covering the spawn threshold again.
+  const int spawn_pixels = int(slam::LifecycleParams{}.spawn_min_area_fraction * double(r.gt_masks[0].total()));
+  int covers = back;
+  while (covers < seq.size() && cv::countNonZero(r.gt_masks[size_t(covers)] == box) < spawn_pixels) ++covers;
+  std::printf("  back in view at frame %d, covers the spawn threshold from %d, covered from %d\n", back, covers,
+              first_covered);
+  EXPECT_LE(first_covered - covers, kMaxDiscoveryFrames);
   EXPECT_GE(covered, seq.size() - first_covered - 2) << "frames covered since frame " << first_covered;
 }
 
