@@ -29,6 +29,11 @@ struct PixelRect {
     return {std::min(x0, o.x0), std::min(y0, o.y0), std::max(x1, o.x1), std::max(y1, o.y1)};
   }
   PixelRect grown(int margin) const { return empty() ? *this : PixelRect{x0 - margin, y0 - margin, x1 + margin, y1 + margin}; }
+  // Whether it reaches within `margin` pixels of the border of a width x height image (an empty
+  // rectangle does not).
+  bool near_border(int width, int height, int margin) const {
+    return !empty() && (x0 <= margin || y0 <= margin || x1 >= width - margin || y1 >= height - margin);
+  }
 
   // The rectangle of pyramid level `level` (each level halves the one below) that holds every
   // level pixel (x, y) whose level-0 pixel (x << level, y << level) lies in this one, clamped to

@@ -363,12 +363,9 @@ void CoFusion::settle_models(const std::vector<Model*>& models, const Eigen::Iso
       rest_if_still_fits(*testing[k], camera_motion, Tracker::add_partials(partials[k], groups[k]));
   }
   for (Model* m : models) {
-    const PixelRect& r = m->track_rect;
-    const int border = params_.lifecycle.coast_border_px;
-    const bool at_border = r.x0 <= border || r.y0 <= border || r.x1 >= intrinsics_.width - border ||
-                           r.y1 >= intrinsics_.height - border;
-    const bool coast = m->tracking.failed && m->id != 0 && m->pixels > 0 && !r.empty() && at_border &&
-                       m->coasted_frames < params_.lifecycle.coast_frames;
+    const LifecycleParams& life = params_.lifecycle;
+    const bool coast = m->tracking.failed && m->id != 0 && m->coasted_frames < life.coast_frames &&
+                       m->track_rect.near_border(intrinsics_.width, intrinsics_.height, life.coast_border_px);
     m->coasted_frames = m->tracking.failed ? m->coasted_frames + 1 : 0;
     if (!coast)
       m->last_motion = m->tracking.failed ? Eigen::Isometry3d::Identity() : m->velocity_motion.value_or(m->motion);

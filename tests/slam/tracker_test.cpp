@@ -574,6 +574,12 @@ TEST(PixelRectTest, LevelsClampAndCoverTheSubsampledPixels) {
   EXPECT_TRUE((PixelRect{700, 0, 800, 10}).clamped(640, 480).empty());
   EXPECT_TRUE(PixelRect{}.at_level(2, 160, 120).empty());
   EXPECT_EQ((PixelRect{10, 10, 20, 20}).grown(3), (PixelRect{7, 7, 23, 23}));
+  EXPECT_TRUE((PixelRect{8, 100, 50, 200}).near_border(640, 480, 8));
+  EXPECT_FALSE((PixelRect{9, 100, 50, 200}).near_border(640, 480, 8));
+  EXPECT_TRUE((PixelRect{300, 100, 632, 200}).near_border(640, 480, 8));
+  EXPECT_FALSE((PixelRect{300, 100, 631, 471}).near_border(640, 480, 8));
+  EXPECT_TRUE((PixelRect{300, 100, 631, 472}).near_border(640, 480, 8));
+  EXPECT_FALSE(PixelRect{}.near_border(640, 480, 8)) << "an empty rectangle touches nothing";
 }
 
 // Frame-to-frame odometry on the noise-free room: errors far below the bounds come from depth
