@@ -990,6 +990,7 @@ void CoFusion::retire(Model& m, CoFusionFrame& out) {
     return s.confidence >= params_.slam.fusion.stable_confidence;
   }));
   m.state = ModelState::kInactive;
+  m.coasted_frames = 0;  // a re-activated model starts with its full allowance (lifecycle.coast_frames)
   const bool keep = stable >= params_.lifecycle.min_stable_surfels;
   if (keep) m.extent = surfel_extent(surfels);
   m.slot = keep ? kInactiveSlot : kRemovedSlot;
