@@ -13,7 +13,9 @@
 #include "shared/fuse_rect.glsl"
 layout(local_size_x = COMPACTION_BLOCK) in;
 layout(binding = FUSE_BINDING_SURFELS) uniform usamplerBuffer surfels_in;  // texel view
-layout(std430, binding = FUSE_BINDING_SURFELS_OUT) writeonly buffer Surfels { Surfel surfels[]; };
+// Surfels as three uvec4s each (texel_access.glsl's layout): a surfel is three whole-vector stores
+// (lavapipe stores a struct field by field, lane after lane), bits unchanged.
+layout(std430, binding = FUSE_BINDING_SURFELS_OUT) writeonly buffer Surfels { uvec4 surfel_texels[]; };
 layout(std430, binding = FUSE_BINDING_INDEX_MAP) readonly buffer IndexMap { uint index_map_unused[]; };
 layout(binding = FUSE_BINDING_VERTEX) uniform usamplerBuffer vertex;  // texel view of vec4
 layout(binding = FUSE_BINDING_NORMAL) uniform usamplerBuffer normal;  // texel view of vec4
@@ -24,6 +26,9 @@ layout(std430, binding = FUSE_BINDING_LABELS) readonly buffer Labels { uint labe
 layout(std430, binding = FUSE_BINDING_BLOCKS) readonly buffer Blocks { uint blocks[]; };
 layout(push_constant) uniform Push { FuseParams p; };
 uint byte_at(uint b) { return (texel_uint(rgb, b >> 2) >> ((b & 3u) * 8u)) & 0xFFu; }
+void store_surfel(uint index, Surfel s) {
+  for (uint k = 0u; k < 3u; ++k) surfel_texels[3u * index + k] = surfel_texel(s, k);
+}
 void main() {
   uvec2 px;
   const bool inside = fuse_rect_pixel(p, gl_GlobalInvocationID.x, px);
@@ -50,7 +55,7 @@ void main() {
     s.created_frame = p.frame;
     s.last_seen_frame = p.frame;
     s.flags = 0u;
-    surfels[slot] = s;
+    store_surfel(slot, s);
     return;
   }
   if (texel_uint(claim, a) != i) return;  // another pixel fuses into this surfel
@@ -68,5 +73,5 @@ void main() {
   }
   s.confidence = c + alpha;
   s.last_seen_frame = p.frame;
-  surfels[a] = s;
+  store_surfel(a, s);
 }
