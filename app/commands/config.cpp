@@ -198,6 +198,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("reactivate_max_rms_m", c.reactivate_max_rms_m)
       .field("object_min_inlier_ratio", c.object_min_inlier_ratio)
       .field("object_outline_photometric", c.object_outline_photometric)
+      .field("object_outline_at_border", c.object_outline_at_border)
       .field("object_photometric_weight", c.object_photometric_weight)
       .field("object_icp_noise_reference_depth_m", c.object_icp_noise_reference_depth_m)
       .field("object_iterations_per_level", c.object_iterations_per_level)

@@ -191,6 +191,18 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
 }
 
+// An object cut by the image's border tracks without its outline term, unless
+// LifecycleParams::object_outline_at_border; its rest test then compares the same terms.
+void CoFusion::choose_object_terms(Model& m) {
+  const LifecycleParams& life = params_.lifecycle;
+  const bool cut = m.track_rect.near_border(intrinsics_.width, intrinsics_.height, life.coast_border_px);
+  const bool outline = life.object_outline_photometric && (life.object_outline_at_border || !cut);
+  if (m.tracker.params().outline_photometric == outline) return;
+  TrackerParams t = m.tracker.params();
+  t.outline_photometric = outline;
+  m.tracker.set_params(t);
+}
+
 // Tracks the models with their own live pixels, all in lockstep on the main stream: one
 // submission per Gauss-Newton iteration for all of them, which on a discrete GPU costs little more
 // than one model's.
@@ -203,6 +215,7 @@ void CoFusion::track(const std::vector<Model*>& models) {
   std::vector<TrackingJob> jobs;
   std::vector<gpu::TimelinePoint> predicted;  // each model's prediction and masks, on its own stream
   for (Model* m : models) {
+    if (m->id != 0) choose_object_terms(*m);
     jobs.push_back(job(*m, params_.slam.constant_velocity_guess ? m->last_motion : Eigen::Isometry3d::Identity()));
     predicted.push_back(m->stream.last_submitted());
   }

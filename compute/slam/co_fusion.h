@@ -196,8 +196,14 @@ struct LifecycleParams {
   // Object models fail tracking below this inlier ratio (their masked live pixels are few and
   // partly occluded; the background keeps TrackerParams::min_inlier_ratio).
   double object_min_inlier_ratio = 0.05;
-  // Object models also track with their outline (TrackerParams::outline_photometric).
+  // Object models also track with their outline (TrackerParams::outline_photometric) ...
   bool object_outline_photometric = true;
+  // ... also while the image's border cuts them (their working rectangle within coast_border_px of
+  // it). Off by default: there the border hides the silhouette on one side, and the outline's pull
+  // at the other side's silhouette went unbalanced (five_objects' object 5, a box with sideways
+  // stripes cut by the left border, drifted 18.3 mm with it and 2.2 mm without; in view, with
+  // both silhouettes, it drifts 2.2 mm with it: docs/experiments.md).
+  bool object_outline_at_border = false;
   // Object models' photometric weight (TrackerParams::photometric_weight, the paper's lambda; the
   // background keeps its own). lambda = (sigma_icp / sigma_rgb)^2 weighs each term by its noise:
   // 2 mm of depth noise at 1 m (shared/depth_noise.h) against 2.5/255 of intensity noise gives
@@ -448,6 +454,7 @@ class CoFusion {
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
   // Tracks the models together (track_together), each with its own live pixels.
   void track(const std::vector<Model*>& models);
+  void choose_object_terms(Model& m);
   void settle_models(const std::vector<Model*>& models, const Eigen::Isometry3d& camera_motion);
   void rest_if_still_fits(Model& m, const Eigen::Isometry3d& camera_motion, const LinearSystemSums& still);
   void compute_residuals(const std::vector<Model*>& models);
