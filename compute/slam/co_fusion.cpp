@@ -191,12 +191,17 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
 }
 
+// Whether the image's border cuts model m: its working rectangle reaches within
+// LifecycleParams::coast_border_px of it (coasting and the outline term's choice).
+bool CoFusion::cut_by_border(const Model& m) const {
+  return m.track_rect.near_border(intrinsics_.width, intrinsics_.height, params_.lifecycle.coast_border_px);
+}
+
 // An object cut by the image's border tracks without its outline term, unless
 // LifecycleParams::object_outline_at_border; its rest test then compares the same terms.
 void CoFusion::choose_object_terms(Model& m) {
   const LifecycleParams& life = params_.lifecycle;
-  const bool cut = m.track_rect.near_border(intrinsics_.width, intrinsics_.height, life.coast_border_px);
-  const bool outline = life.object_outline_photometric && (life.object_outline_at_border || !cut);
+  const bool outline = life.object_outline_photometric && (life.object_outline_at_border || !cut_by_border(m));
   if (m.tracker.params().outline_photometric == outline) return;
   TrackerParams t = m.tracker.params();
   t.outline_photometric = outline;
@@ -377,8 +382,7 @@ void CoFusion::settle_models(const std::vector<Model*>& models, const Eigen::Iso
   }
   for (Model* m : models) {
     const LifecycleParams& life = params_.lifecycle;
-    const bool coast = m->tracking.failed && m->id != 0 && m->coasted_frames < life.coast_frames &&
-                       m->track_rect.near_border(intrinsics_.width, intrinsics_.height, life.coast_border_px);
+    const bool coast = m->tracking.failed && m->id != 0 && m->coasted_frames < life.coast_frames && cut_by_border(*m);
     m->coasted_frames = m->tracking.failed ? m->coasted_frames + 1 : 0;
     if (!coast)
       m->last_motion = m->tracking.failed ? Eigen::Isometry3d::Identity() : m->velocity_motion.value_or(m->motion);

@@ -454,6 +454,7 @@ class CoFusion {
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
   // Tracks the models together (track_together), each with its own live pixels.
   void track(const std::vector<Model*>& models);
+  bool cut_by_border(const Model& m) const;
   void choose_object_terms(Model& m);
   void settle_models(const std::vector<Model*>& models, const Eigen::Isometry3d& camera_motion);
   void rest_if_still_fits(Model& m, const Eigen::Isometry3d& camera_motion, const LinearSystemSums& still);
