@@ -138,6 +138,21 @@ struct LifecycleParams {
   // ... and only when at least this fraction of the region was a large outlier region in the
   // previous frame too.
   double spawn_min_overlap = 0.5;
+  // Evidence over frames for an object under spawn_min_area_fraction (a small one, or one whose
+  // motion leaves only part of it an outlier): a region of at least spawn_keep_area_fraction,
+  // clear of the image's border (coast_border_px; an object coming into view reaches the paper's
+  // size soon), spawns as well, under the same other rules, when it has been a candidate for
+  // spawn_persist_frames consecutive frames (each covering at least spawn_min_overlap of it with
+  // the previous frame's candidates, the camera steady enough for a spawn in each) and its
+  // centroid moved on over them: in the world frame, by at least spawn_persist_min_travel_rel of
+  // its distance from the camera (10 mm at 1 m), and in one direction, its net travel at least
+  // spawn_persist_min_straightness of the summed steps. A static surface the background fits
+  // badly also makes a region frame after frame (TUM fr1/rpy: a far wall while the camera's
+  // estimate was off), but its centroid only jitters as the region's outline changes. 0 frames =
+  // off (only the paper's size).
+  int spawn_persist_frames = 3;
+  double spawn_persist_min_travel_rel = 0.01;
+  double spawn_persist_min_straightness = 0.5;
   // A new model's first tracking starts from the region's centroid motion over the last frame
   // when it is at most this long (metres; longer means the regions are not one object's).
   double spawn_max_velocity_guess_m = 0.1;
@@ -613,12 +628,23 @@ class CoFusion {
   // This frame's share of pixels (not movers') that the background's prediction covers but does not
   // explain: the bar a resting model's own share is measured against (SemanticParams).
   double scene_unexplained_share_ = 0;
-  // The previous frame's outlier regions (outlier_regions) that did not spawn: per pixel 0 = none,
-  // k = the k-th, described by entry k - 1.
+  // A candidate region followed over consecutive steady frames (LifecycleParams::spawn_persist_*):
+  // how many, and its world centroid's path over them.
+  struct CandidateTrack {
+    int frames = 0;
+    std::optional<Eigen::Vector3d> first_world, last_world;  // centroids, world frame
+    double path_m = 0;                                        // summed centroid steps
+    // The track continued by this frame's region (centroid in the camera frame).
+    CandidateTrack continued(const std::optional<Eigen::Vector3d>& world_centroid) const;
+  };
   struct SpawnCandidate {
     std::optional<Eigen::Vector3d> centroid;  // of its live points, camera frame; none without depth
     bool large = false;                       // it covered spawn_min_area_fraction
+    CandidateTrack track;                     // its frames as a candidate (spawn_persist_*)
   };
+  bool persisted_and_moved(const CandidateTrack& track, const std::vector<size_t>& pixels) const;
+  // The previous frame's outlier regions (outlier_regions) that did not spawn: per pixel 0 = none,
+  // k = the k-th, described by entry k - 1.
   std::vector<uint8_t> spawn_candidate_;
   std::vector<SpawnCandidate> spawn_candidates_;
   // The background's per-pixel costs of the last two frames (frame number, costs; newest last)

@@ -35,6 +35,18 @@ bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen:
 }
 
 namespace {
+// The bounding rectangle of pixel indices of an image `width` pixels wide.
+PixelRect bounding_rect(const std::vector<size_t>& pixels, size_t width) {
+  if (pixels.empty()) return {};
+  PixelRect r{int(pixels.front() % width), int(pixels.front() / width), 0, 0};
+  r.x1 = r.x0 + 1, r.y1 = r.y0 + 1;
+  for (size_t i : pixels) {
+    const int x = int(i % width), y = int(i / width);
+    r.x0 = std::min(r.x0, x), r.x1 = std::max(r.x1, x + 1), r.y0 = std::min(r.y0, y), r.y1 = std::max(r.y1, y + 1);
+  }
+  return r;
+}
+
 // Pixels per slot (kNoSlot is none): integer counts per block of pixels in parallel, then added.
 // One serial pass stalls on its own increments (most pixels share a few slots).
 std::vector<int> slot_pixel_counts(const std::vector<uint8_t>& slots) {
@@ -492,14 +504,24 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     std::vector<size_t> overlap(previous.size() + 1, 0);
     if (previous_candidates.size() == n)
       for (size_t i : pixels) ++overlap[previous_candidates[i]];
-    // Hysteresis (spawn_keep_area_fraction): only spawn-sized candidates confirm a region.
-    size_t confirmed = 0, best_previous = 0;
+    // Hysteresis (spawn_keep_area_fraction): only spawn-sized candidates confirm a region; any
+    // candidate continues one (spawn_persist_*).
+    size_t confirmed = 0, continuing = 0, best_previous = 0;
     for (size_t k = 1; k < overlap.size(); ++k) {
       if (previous[k - 1].large) confirmed += overlap[k];
+      continuing += overlap[k];
       if (overlap[k] > overlap[best_previous]) best_previous = k;
     }
+    const double min_overlap = p.spawn_min_overlap * double(pixels.size());
+    CandidateTrack track;
+    if (camera_steady) {
+      const bool continues = double(continuing) >= min_overlap && best_previous > 0;
+      const std::optional<Eigen::Vector3d> world =
+          centroid ? std::optional<Eigen::Vector3d>(T_world_camera_ * *centroid) : std::nullopt;
+      track = (continues ? previous[best_previous - 1].track : CandidateTrack{}).continued(world);
+    }
     const bool large = double(pixels.size()) > p.spawn_min_area_fraction * double(n);
-    const bool persistent = double(confirmed) >= p.spawn_min_overlap * double(pixels.size());
+    const bool persistent = double(confirmed) >= min_overlap || persisted_and_moved(track, pixels);
     const std::optional<Eigen::Vector3d> previous_centroid =
         best_previous > 0 ? previous[best_previous - 1].centroid : std::nullopt;
     const bool eligible = frame_ >= p.warmup_frames && camera_steady && persistent &&
@@ -518,11 +540,35 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     }
     if (p.hold_spawn_candidates) plan.held.push_back(r);
     if (spawn_candidates_.size() < 254) {  // a candidate for the next frame
-      spawn_candidates_.push_back({centroid, large});
+      spawn_candidates_.push_back({centroid, large, track});
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidates_.size());
     }
   }
   return plan;
+}
+
+CoFusion::CandidateTrack CoFusion::CandidateTrack::continued(const std::optional<Eigen::Vector3d>& world_centroid) const {
+  CandidateTrack t = *this;
+  ++t.frames;
+  if (!world_centroid) return t;
+  if (!t.first_world) t.first_world = world_centroid;
+  if (t.last_world) t.path_m += (*world_centroid - *t.last_world).norm();
+  t.last_world = world_centroid;
+  return t;
+}
+
+// LifecycleParams::spawn_persist_*: whether a candidate region (this frame's pixels) has persisted
+// and moved on long enough to spawn below the paper's size.
+bool CoFusion::persisted_and_moved(const CandidateTrack& track, const std::vector<size_t>& pixels) const {
+  const LifecycleParams& p = params_.lifecycle;
+  if (p.spawn_persist_frames <= 0 || track.frames < p.spawn_persist_frames || !track.first_world || !track.last_world)
+    return false;
+  if (bounding_rect(pixels, size_t(intrinsics_.width)).near_border(intrinsics_.width, intrinsics_.height, p.coast_border_px))
+    return false;
+  const double travel_m = (*track.last_world - *track.first_world).norm();
+  const double distance_m = (*track.last_world - T_world_camera_.translation()).norm();
+  return travel_m >= p.spawn_persist_min_travel_rel * distance_m &&
+         travel_m >= p.spawn_persist_min_straightness * track.path_m;
 }
 
 // LifecycleParams::hold_spawn_candidates: the background's pixels in the held candidate regions
