@@ -172,7 +172,9 @@ struct LifecycleParams {
   unsigned min_stable_surfels = 300;
   // Spurious models: a new model that has moved less than these relative to the background
   // after probation_frames is no object (noise or an occlusion edge spawned it) and is merged
-  // back into the background.
+  // back into the background. A model spawned by spawn_persist_* counts its travel from where its
+  // region's candidate track began: its region was seen moving for frames before (a small can
+  // sliding at 3 mm per frame had moved 1.8 cm in its 6 frames since the spawn, 2.7 cm since).
   int probation_frames = 6;
   double static_translation_m = 0.025;
   double static_rotation_deg = 5.0;
@@ -519,6 +521,9 @@ class CoFusion {
       int slot;       // the free slot it takes
       std::optional<Eigen::Vector3d> centroid, previous_centroid;  // camera frame, this and last frame
       std::optional<double> rigid_fraction;  // LifecycleParams::spawn_rigidity's measure, when it ran
+      // Spawned by spawn_persist_* (not the paper's size): the world centroid of its region when its
+      // candidate track began; the new model's probation counts the travel since.
+      std::optional<Eigen::Vector3d> track_start_world;
     };
     std::vector<std::vector<size_t>> regions;
     std::vector<Spawn> spawns;

@@ -160,6 +160,9 @@ struct CoFusion::Model {
   int unseen_frames = 0;
   int coasted_frames = 0;  // consecutive failed trackings it kept its last motion for (coast_frames)
   bool on_probation = true;  // objects: not yet shown to move relative to the background
+  // Where its probation measures travel from (world): the origin it was spawned at, or where its
+  // region's candidate track began (LifecycleParams::spawn_persist_*).
+  std::optional<Eigen::Vector3d> probation_start_world;
   // A model spawned from an instance mask that has not been seen to move (SemanticParams::
   // resting_max_unexplained_fraction): it keeps its world pose without being tracked, and the
   // background keeps its surfels and tracks the camera with its pixels.

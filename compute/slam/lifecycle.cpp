@@ -182,7 +182,10 @@ void CoFusion::merge_static_newcomers(const std::vector<Model*>& order, std::vec
   for (Model* m : order) {
     if (m->id == 0 || m->state != ModelState::kActive || !m->on_probation) continue;
     const Eigen::Isometry3d moved = m->trajectory.front().second.inverse() * m->surfels.T_world_model;
-    if (moved.translation().norm() >= p.static_translation_m || rotation_deg(moved) >= p.static_rotation_deg) {
+    const double travel_m =
+        m->probation_start_world ? (m->surfels.T_world_model.translation() - *m->probation_start_world).norm() : 0.0;
+    if (std::max(moved.translation().norm(), travel_m) >= p.static_translation_m ||
+        rotation_deg(moved) >= p.static_rotation_deg) {
       m->on_probation = false;
     } else if (frame_ - m->first_frame >= p.probation_frames) {
       relabel(slots, m->slot, bg.slot);
@@ -521,7 +524,9 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
       track = (continues ? previous[best_previous - 1].track : CandidateTrack{}).continued(world);
     }
     const bool large = double(pixels.size()) > p.spawn_min_area_fraction * double(n);
-    const bool persistent = double(confirmed) >= min_overlap || persisted_and_moved(track, pixels);
+    const bool confirmed_large = double(confirmed) >= min_overlap;
+    const bool travelled = !confirmed_large && persisted_and_moved(track, pixels);
+    const bool persistent = confirmed_large || travelled;
     const std::optional<Eigen::Vector3d> previous_centroid =
         best_previous > 0 ? previous[best_previous - 1].centroid : std::nullopt;
     const bool eligible = frame_ >= p.warmup_frames && camera_steady && persistent &&
@@ -529,7 +534,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     const std::optional<double> rigid =
         eligible ? rigid_fraction(pixels, depth_m, centroid, previous_centroid) : std::nullopt;
     if (eligible && (!rigid || *rigid >= p.spawn_rigidity.min_aligned_fraction)) {
-      plan.spawns.push_back({r, -1, centroid, previous_centroid, rigid});
+      plan.spawns.push_back({r, -1, centroid, previous_centroid, rigid, travelled ? track.first_world : std::nullopt});
       continue;
     }
     if (eligible) {  // it failed the rigidity check
@@ -697,6 +702,7 @@ void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector
   Eigen::Isometry3d T_camera_model = Eigen::Isometry3d::Identity();
   T_camera_model.translation() = centroid;
   Model& m = create_model(sp.slot, T_world_camera_ * T_camera_model);
+  m.probation_start_world = sp.track_start_world;
   m.pixels = static_cast<int>(pixels.size());
   m.last_motion = velocity_guess;
   m.guess_from_centroid_step = true;
