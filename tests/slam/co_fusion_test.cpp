@@ -372,14 +372,24 @@ TEST_P(ValidationScene, SlidingBoxIsFoundSlow) {
 INSTANTIATE_TEST_SUITE_P(NoiseSeeds, ValidationScene, ::testing::Values(0u, 4u),
                          [](const ::testing::TestParamInfo<unsigned>& seed) { return "Seed" + std::to_string(seed.param); });
 
-// An object under the paper's spawn size (docs/validation/towards.json: a can slides towards the
-// camera from frame 15 and back, 1.1-2.7 % of the image) is found from its outlier region's
-// persistence and steady travel (LifecycleParams::spawn_persist_*): never without them. Bounds:
-// found within issue 23's 6 frames of covering spawn_keep_area_fraction of the image (frame 30;
-// found at 33), drift within 5 mm, IoU 0.9 after discovery, one object model, camera within 1 cm.
-TEST_F(CoFusionScenes, SmallObjectUnderThePaperSizeIsFoundSlow) {
+// An object under the paper's spawn size is found from its outlier region's persistence and
+// steady travel (LifecycleParams::spawn_persist_*): never without them. docs/validation/towards.json:
+// a can slides towards the camera from frame 15 and back, 1.1-2.7 % of the image; it covers
+// spawn_keep_area_fraction of the image from frame 30 and is found at 33. towards_slow.json: the
+// same can at about 3 mm per frame, 1.1-1.8 % of the image; covers it from 61, found at 68, and
+// kept (its probation counts the region's travel before the spawn; merged back after 6 frames
+// without). Bounds: found within the allowance of covering spawn_keep_area_fraction (issue 23's
+// 6 frames; 8 for the slow can, whose region reaches it later), drift within 5 mm, IoU 0.9 after
+// discovery, one object model, camera within 1 cm.
+struct SmallObjectCase {
+  const char* file;
+  int allowance_frames;
+};
+class SmallObjectScene : public CoFusionScenes, public ::testing::WithParamInterface<SmallObjectCase> {};
+
+TEST_P(SmallObjectScene, UnderThePaperSizeIsFoundSlow) {
   const synthetic::SyntheticSequence seq(
-      synthetic::load_scene((source_dir() / "docs" / "validation" / "towards.json").string()), 0);
+      synthetic::load_scene((source_dir() / "docs" / "validation" / GetParam().file).string()), 0);
   const SceneRun r = run(seq);
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.01);
@@ -394,7 +404,7 @@ TEST_F(CoFusionScenes, SmallObjectUnderThePaperSizeIsFoundSlow) {
   std::printf("  the can covers %.1f%% of the image from frame %d, found at %d\n",
               100.0 * slam::LifecycleParams{}.spawn_keep_area_fraction, covers, found);
   ASSERT_GE(found, 0) << "the can was never found";
-  EXPECT_LE(found, covers + kMaxDiscoveryFrames);
+  EXPECT_LE(found, covers + GetParam().allowance_frames);
   const double drift_m = object_errors(seq, r, can, model_trajectory(seq, r, id)).drift_translation_m.rmse;
   std::printf("  drift %.1f mm RMSE\n", 1e3 * drift_m);
   EXPECT_LE(drift_m, kMaxDriftM);
@@ -403,6 +413,13 @@ TEST_F(CoFusionScenes, SmallObjectUnderThePaperSizeIsFoundSlow) {
   EXPECT_GE(iou_sum / double(seq.size() - found), 0.9);
   EXPECT_EQ(object_model_ids(r).size(), 1u);
 }
+INSTANTIATE_TEST_SUITE_P(Cans, SmallObjectScene,
+                         ::testing::Values(SmallObjectCase{"towards.json", kMaxDiscoveryFrames},
+                                           SmallObjectCase{"towards_slow.json", 8}),
+                         [](const ::testing::TestParamInfo<SmallObjectCase>& c) {
+                           return c.param.allowance_frames == kMaxDiscoveryFrames ? std::string("Sliding")
+                                                                                  : std::string("SlidingSlowly");
+                         });
 
 // Objects carried into the view fast (table_placement's ball: 3.4 cm per frame) move out of the
 // pixels a new model is masked to before it is first tracked. Its first tracking starts from the
