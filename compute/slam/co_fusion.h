@@ -174,7 +174,7 @@ struct LifecycleParams {
   // after probation_frames is no object (noise or an occlusion edge spawned it) and is merged
   // back into the background. A model spawned by spawn_persist_* counts its travel from where its
   // region's candidate track began: its region was seen moving for frames before (a small can
-  // sliding at 3 mm per frame had moved 1.8 cm in its 6 frames since the spawn, 2.7 cm since).
+  // sliding at 4 mm per frame moved 2.4 cm in its 6 frames since the spawn, 3.2 cm since then).
   int probation_frames = 6;
   double static_translation_m = 0.025;
   double static_rotation_deg = 5.0;
@@ -526,6 +526,7 @@ class CoFusion {
       std::optional<Eigen::Vector3d> track_start_world;
     };
     std::vector<std::vector<size_t>> regions;
+    std::vector<PixelRect> region_rects;  // the regions' bounding rectangles
     std::vector<Spawn> spawns;
     std::vector<size_t> held;  // regions whose background pixels are held (hold_spawn_candidates)
   };
@@ -554,7 +555,7 @@ class CoFusion {
                                       const std::array<const std::vector<float>*, 3>& costs,
                                       const std::vector<uint8_t>& labels);
   std::vector<std::vector<size_t>> outlier_regions(const segmentation::SegmentationResult& seg, uint8_t outlier,
-                                                   std::vector<uint8_t>& slots);
+                                                   std::vector<uint8_t>& slots, std::vector<PixelRect>& rects);
   std::optional<Eigen::Vector3d> region_centroid(const std::vector<size_t>& pixels, const float* depth_m) const;
   SpawnPlan plan_spawns(const segmentation::SegmentationResult& seg, const float* depth_m, uint8_t outlier,
                         const Model& bg, std::vector<uint8_t>& slots, CoFusionFrame& out);
@@ -647,7 +648,7 @@ class CoFusion {
     bool large = false;                       // it covered spawn_min_area_fraction
     CandidateTrack track;                     // its frames as a candidate (spawn_persist_*)
   };
-  bool persisted_and_moved(const CandidateTrack& track, const std::vector<size_t>& pixels) const;
+  bool persisted_and_moved(const CandidateTrack& track, const PixelRect& rect) const;
   // The previous frame's outlier regions (outlier_regions) that did not spawn: per pixel 0 = none,
   // k = the k-th, described by entry k - 1.
   std::vector<uint8_t> spawn_candidate_;

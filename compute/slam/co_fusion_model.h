@@ -160,8 +160,8 @@ struct CoFusion::Model {
   int unseen_frames = 0;
   int coasted_frames = 0;  // consecutive failed trackings it kept its last motion for (coast_frames)
   bool on_probation = true;  // objects: not yet shown to move relative to the background
-  // Where its probation measures travel from (world): the origin it was spawned at, or where its
-  // region's candidate track began (LifecycleParams::spawn_persist_*).
+  // Spawned by LifecycleParams::spawn_persist_*: the world centroid of its region where its
+  // candidate track began; its probation also counts the travel from there.
   std::optional<Eigen::Vector3d> probation_start_world;
   // A model spawned from an instance mask that has not been seen to move (SemanticParams::
   // resting_max_unexplained_fraction): it keeps its world pose without being tracked, and the

@@ -35,18 +35,6 @@ bool relative_pose_held(const PoseHistory& a, const PoseHistory& b, const Eigen:
 }
 
 namespace {
-// The bounding rectangle of pixel indices of an image `width` pixels wide.
-PixelRect bounding_rect(const std::vector<size_t>& pixels, size_t width) {
-  if (pixels.empty()) return {};
-  PixelRect r{int(pixels.front() % width), int(pixels.front() / width), 0, 0};
-  r.x1 = r.x0 + 1, r.y1 = r.y0 + 1;
-  for (size_t i : pixels) {
-    const int x = int(i % width), y = int(i / width);
-    r.x0 = std::min(r.x0, x), r.x1 = std::max(r.x1, x + 1), r.y0 = std::min(r.y0, y), r.y1 = std::max(r.y1, y + 1);
-  }
-  return r;
-}
-
 // Pixels per slot (kNoSlot is none): integer counts per block of pixels in parallel, then added.
 // One serial pass stalls on its own increments (most pixels share a few slots).
 std::vector<int> slot_pixel_counts(const std::vector<uint8_t>& slots) {
@@ -226,9 +214,9 @@ void CoFusion::merge_comoving(const std::vector<Model*>& order, std::vector<uint
 
 // The pixels of every connected outlier region (4-connectivity) that is no mover and covers
 // between spawn_keep_area_fraction (spawn_min_area_fraction where that is 0) and
-// spawn_max_area_fraction of the image, largest first.
+// spawn_max_area_fraction of the image, largest first; `rects` gets their bounding rectangles.
 std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::SegmentationResult& seg, uint8_t outlier,
-                                                           std::vector<uint8_t>& slots) {
+                                                           std::vector<uint8_t>& slots, std::vector<PixelRect>& rects) {
   const LifecycleParams& p = params_.lifecycle;
   const int width = intrinsics_.width, height = intrinsics_.height;
   const double n = double(width) * height;
@@ -265,7 +253,12 @@ std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::S
     return components_.components[size_t(x)].pixels > components_.components[size_t(y)].pixels;
   });
   std::vector<int> region_of(components_.components.size(), -1);
-  for (size_t r = 0; r < large_components.size(); ++r) region_of[size_t(large_components[r])] = int(r);
+  rects.clear();
+  for (size_t r = 0; r < large_components.size(); ++r) {
+    region_of[size_t(large_components[r])] = int(r);
+    const auto& info = components_.components[size_t(large_components[r])];
+    rects.push_back({info.x0, info.y0, info.x1, info.y1});
+  }
   std::vector<std::vector<size_t>> regions(large_components.size());
   for (const auto& run : components_.runs)
     if (run.component >= 0 && region_of[size_t(run.component)] >= 0)
@@ -490,7 +483,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
   const LifecycleParams& p = params_.lifecycle;
   const size_t n = slots.size();
   SpawnPlan plan;
-  plan.regions = outlier_regions(seg, outlier, slots);
+  plan.regions = outlier_regions(seg, outlier, slots, plan.region_rects);
   int active_count = 0;
   for (auto& m : models_) active_count += m->state == ModelState::kActive;
   const bool camera_steady = spawn_camera_steady(bg);
@@ -525,7 +518,7 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     }
     const bool large = double(pixels.size()) > p.spawn_min_area_fraction * double(n);
     const bool confirmed_large = double(confirmed) >= min_overlap;
-    const bool travelled = !confirmed_large && persisted_and_moved(track, pixels);
+    const bool travelled = !confirmed_large && persisted_and_moved(track, plan.region_rects[r]);
     const bool persistent = confirmed_large || travelled;
     const std::optional<Eigen::Vector3d> previous_centroid =
         best_previous > 0 ? previous[best_previous - 1].centroid : std::nullopt;
@@ -562,14 +555,13 @@ CoFusion::CandidateTrack CoFusion::CandidateTrack::continued(const std::optional
   return t;
 }
 
-// LifecycleParams::spawn_persist_*: whether a candidate region (this frame's pixels) has persisted
-// and moved on long enough to spawn below the paper's size.
-bool CoFusion::persisted_and_moved(const CandidateTrack& track, const std::vector<size_t>& pixels) const {
+// LifecycleParams::spawn_persist_*: whether a candidate region (this frame's bounding rectangle)
+// has persisted and moved on long enough to spawn below the paper's size.
+bool CoFusion::persisted_and_moved(const CandidateTrack& track, const PixelRect& rect) const {
   const LifecycleParams& p = params_.lifecycle;
   if (p.spawn_persist_frames <= 0 || track.frames < p.spawn_persist_frames || !track.first_world || !track.last_world)
     return false;
-  if (bounding_rect(pixels, size_t(intrinsics_.width)).near_border(intrinsics_.width, intrinsics_.height, p.coast_border_px))
-    return false;
+  if (rect.near_border(intrinsics_.width, intrinsics_.height, p.coast_border_px)) return false;
   const double travel_m = (*track.last_world - *track.first_world).norm();
   const double distance_m = (*track.last_world - T_world_camera_.translation()).norm();
   return travel_m >= p.spawn_persist_min_travel_rel * distance_m &&

@@ -379,9 +379,11 @@ INSTANTIATE_TEST_SUITE_P(NoiseSeeds, ValidationScene, ::testing::Values(0u, 4u),
 // same can at about 3 mm per frame, 1.1-1.8 % of the image; covers it from 61, found at 68, and
 // kept (its probation counts the region's travel before the spawn; merged back after 6 frames
 // without). Bounds: found within the allowance of covering spawn_keep_area_fraction (issue 23's
-// 6 frames; 8 for the slow can, whose region reaches it later), drift within 5 mm, IoU 0.9 after
-// discovery, one object model, camera within 1 cm.
+// 6 frames; for the slow can 8, its measured 7 plus one: its region reaches that size later than
+// its mask, and issue 23's count from the start of its motion is not met by it), drift within
+// 5 mm, IoU 0.9 after discovery, one object model, camera within 1 cm.
 struct SmallObjectCase {
+  const char* name;
   const char* file;
   int allowance_frames;
 };
@@ -414,12 +416,9 @@ TEST_P(SmallObjectScene, UnderThePaperSizeIsFoundSlow) {
   EXPECT_EQ(object_model_ids(r).size(), 1u);
 }
 INSTANTIATE_TEST_SUITE_P(Cans, SmallObjectScene,
-                         ::testing::Values(SmallObjectCase{"towards.json", kMaxDiscoveryFrames},
-                                           SmallObjectCase{"towards_slow.json", 8}),
-                         [](const ::testing::TestParamInfo<SmallObjectCase>& c) {
-                           return c.param.allowance_frames == kMaxDiscoveryFrames ? std::string("Sliding")
-                                                                                  : std::string("SlidingSlowly");
-                         });
+                         ::testing::Values(SmallObjectCase{"Sliding", "towards.json", kMaxDiscoveryFrames},
+                                           SmallObjectCase{"SlidingSlowly", "towards_slow.json", 8}),
+                         [](const ::testing::TestParamInfo<SmallObjectCase>& c) { return std::string(c.param.name); });
 
 // Objects carried into the view fast (table_placement's ball: 3.4 cm per frame) move out of the
 // pixels a new model is masked to before it is first tracked. Its first tracking starts from the
