@@ -233,6 +233,9 @@ Context::Context(const ContextOptions& options) : options_(options) {
   if (!info_.usable) throw Error("Vulkan device '" + info_.name + "' cannot be used: " + info_.why_unusable);
   physical_device_ = std::move(devices[chosen]);
   features_ = query_features(physical_device_);
+  spin_wait_us_ = options_.spin_wait_us >= 0 ? static_cast<uint32_t>(options_.spin_wait_us)
+                  : is_software()           ? 0u
+                                            : kDefaultSpinWaitUs;
   create_device();
 }
 
@@ -317,7 +320,8 @@ Context::~Context() {
 std::string Context::description() const {
   return info_.name + " [" + info_.type + ", Vulkan " + version_string(info_.api_version) + "], " +
          std::to_string(queues_.size()) + " of " + std::to_string(offered_queue_count_) + " compute queue" +
-         (offered_queue_count_ == 1 ? "" : "s");
+         (offered_queue_count_ == 1 ? "" : "s") +
+         (spin_wait_us_ > 0 ? ", waits poll up to " + std::to_string(spin_wait_us_) + " us" : "");
 }
 
 uint32_t Context::find_memory_type(uint32_t type_bits, vk::MemoryPropertyFlags required,

@@ -31,6 +31,11 @@ struct ContextOptions {
   // At most this many compute queues (0: the device's default: one on NVIDIA, where several ran
   // slower, else every queue of the family, up to 8). With 1, per-model work shares one queue.
   uint32_t max_compute_queues = 0;
+  // How long a wait for the GPU first polls the timeline on the host before it sleeps in the
+  // driver, in microseconds (negative: by device - 0 where the device is the CPU itself, whose
+  // cores a polling host would take; kDefaultSpinWaitUs elsewhere, where a sleeping wait wakes
+  // tens of microseconds after the GPU finishes and the frame has dozens of short round trips).
+  int spin_wait_us = -1;
   // Called for every validation message of error severity (after it is counted and printed).
   // Tests turn it into a test failure.
   std::function<void(const std::string& message)> on_validation_error;
@@ -107,6 +112,9 @@ class Context {
   // e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu, Vulkan 1.3.230], 1 of 1 compute queue"
   std::string description() const;
   bool is_software() const { return info_.type == "cpu"; }
+  // ContextOptions::spin_wait_us resolved for this device.
+  uint32_t spin_wait_us() const { return spin_wait_us_; }
+  static constexpr uint32_t kDefaultSpinWaitUs = 2000;
 
   uint32_t compute_queue_count() const { return static_cast<uint32_t>(queues_.size()); }
   uint32_t compute_queue_family() const { return queue_family_; }
@@ -154,6 +162,7 @@ class Context {
   vk::raii::PhysicalDevice physical_device_{nullptr};
   vk::raii::Device device_{nullptr};
   DeviceInfo info_;
+  uint32_t spin_wait_us_ = 0;
   DeviceFeatures features_;
   bool debug_utils_ = false;
   uint32_t queue_family_ = 0;

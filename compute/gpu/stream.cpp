@@ -1,6 +1,7 @@
 #include "gpu/stream.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <limits>
 
@@ -182,10 +183,29 @@ TimelinePoint Stream::submit(CommandList&& list, std::span<const TimelinePoint> 
 uint64_t Stream::completed_value() const { return timeline_.getCounterValue(); }
 
 void Stream::wait(const TimelinePoint& point) {
+  if (poll_until_reached(point)) {
+    collect_finished();
+    return;
+  }
   vk::SemaphoreWaitInfo info{.semaphoreCount = 1, .pSemaphores = &point.semaphore, .pValues = &point.value};
   const vk::Result r = ctx_.device().waitSemaphores(info, std::numeric_limits<uint64_t>::max());
   if (r != vk::Result::eSuccess) throw Error("waiting for stream '" + name_ + "' failed: " + vk::to_string(r));
   collect_finished();
+}
+
+bool Stream::poll_until_reached(const TimelinePoint& point) const {
+  const uint32_t spin_us = ctx_.spin_wait_us();
+  if (spin_us == 0) return false;
+  const auto& device = ctx_.device();
+  const auto until = std::chrono::steady_clock::now() + std::chrono::microseconds(spin_us);
+  do {
+    uint64_t value = 0;
+    const vk::Result r = static_cast<vk::Result>(
+        device.getDispatcher()->vkGetSemaphoreCounterValue(*device, point.semaphore, &value));
+    if (r != vk::Result::eSuccess) return false;  // the blocking wait reports the error
+    if (value >= point.value) return true;
+  } while (std::chrono::steady_clock::now() < until);
+  return false;
 }
 
 void Stream::wait_idle() {

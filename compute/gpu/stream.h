@@ -111,6 +111,8 @@ class Stream {
   // Submits `list`, which first waits for every point in `waits`; returns the point that signals
   // when it has finished.
   TimelinePoint submit(CommandList&& list, std::span<const TimelinePoint> waits = {});
+  // Returns once `point` is reached: polling first for Context::spin_wait_us(), then asleep in the
+  // driver.
   void wait(const TimelinePoint& point);
   void wait_idle();
   uint64_t completed_value() const;
@@ -155,6 +157,8 @@ class Stream {
     std::unique_ptr<CommandList::Timing> timing;
   };
   void collect_finished();
+  // Polls the timeline for up to Context::spin_wait_us(); whether `point` was reached.
+  bool poll_until_reached(const TimelinePoint& point) const;
   // The upload staging buffer, at least `bytes` large. Only synchronous uploads use it, after waiting
   // for every earlier submission, so one buffer serves them all.
   const BufferPtr& staging(size_t bytes);

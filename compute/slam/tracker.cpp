@@ -78,8 +78,12 @@ Tracker::Tracker(gpu::Context& ctx, TrackerParams params)
   set_params(params_);
 }
 
-void Tracker::set_params(const TrackerParams& params) {
-  validate(params, "Tracker");
+void Tracker::set_params(const TrackerParams& requested) {
+  validate(requested, "Tracker");
+  TrackerParams params = requested;
+  if (params.reduction_workgroups == 0)
+    params.reduction_workgroups = ctx_.is_software() ? TrackerParams::kCpuReductionWorkgroups
+                                                     : TrackerParams::kGpuReductionWorkgroups;
   const size_t bytes = static_cast<size_t>(params.reduction_workgroups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
   if (!partials_ || partials_->size() < bytes) partials_ = gpu::Buffer::create(ctx_, bytes, "tracker partial sums");
   params_ = params;

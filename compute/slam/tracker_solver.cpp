@@ -74,7 +74,7 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.max_translation_from_guess_m > 0) || !(p.max_rotation_from_guess_deg > 0))
     bad("max motion from the guess must be > 0");
   if (!(p.converged_translation_m >= 0) || !(p.converged_rotation_rad >= 0)) bad("convergence thresholds must be >= 0");
-  if (p.reduction_workgroups < 1) bad("reduction_workgroups must be >= 1");
+  if (p.reduction_workgroups < 0) bad("reduction_workgroups must be >= 0 (0: by device)");
 }
 
 namespace {

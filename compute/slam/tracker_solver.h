@@ -124,9 +124,12 @@ struct TrackerParams {
   double converged_translation_m = 1e-4;
   double converged_rotation_rad = 1e-4;
 
-  // GPU only: workgroups of the reduction (each loops over its share of the pixels). A few large
-  // ones suit lavapipe (2 threads); discrete GPUs want many more.
-  int reduction_workgroups = 16;
+  // GPU only: workgroups of the reduction (each loops over its share of the pixels); 0 = by
+  // device. A few large ones suit a device that is the CPU itself (kCpuReductionWorkgroups, for
+  // lavapipe's threads); a GPU wants enough to fill its multiprocessors (kGpuReductionWorkgroups).
+  int reduction_workgroups = 0;
+  static constexpr int kCpuReductionWorkgroups = 16;
+  static constexpr int kGpuReductionWorkgroups = 64;
 };
 
 // What one iteration's sums depend on besides the pose. Huber thresholds: residuals beyond them

@@ -330,6 +330,35 @@ TEST_F(ComputeCore, TimelineWaitOrdersWorkAcrossStreams) {
   for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], i + 3);
 }
 
+// Waits that poll the timeline first (ContextOptions::spin_wait_us; by device: none where the
+// device is the CPU) return only once the work is done, whether the polling sees it finish or
+// runs out and the driver's wait takes over.
+TEST_F(ComputeCore, WaitsThatPollFirstReturnOnlyOnceTheWorkIsDone) {
+  EXPECT_EQ(ctx().spin_wait_us(), ctx().is_software() ? 0u : gpu::Context::kDefaultSpinWaitUs);
+  for (int spin_us : {1, 200000}) {
+    auto options = validated_options();
+    options.spin_wait_us = spin_us;
+    gpu::Context c(options);
+    EXPECT_EQ(c.spin_wait_us(), uint32_t(spin_us));
+    EXPECT_THAT(c.description(), HasSubstr("waits poll up to " + std::to_string(spin_us) + " us"));
+    gpu::ComputePipeline p(c, "test_fill", shaders::test_fill_comp(), 1, sizeof(gpu_layout::TestFillParams));
+    gpu::Stream s(c, 0, "polling waits");
+    const uint32_t n = 640 * 480;
+    auto b = gpu::Buffer::create(c, n * 4, "polled");
+    for (uint32_t round = 0; round < 3; ++round) {
+      auto cmd = s.begin();
+      cmd.dispatch(p, {b}, gpu_layout::TestFillParams{n, round}, gpu::group_count(n, 64));
+      const auto* host = static_cast<const uint32_t*>(s.record_download(cmd, b, n * 4, 0));
+      const gpu::TimelinePoint done = s.submit(std::move(cmd));
+      s.wait(done);
+      EXPECT_GE(s.completed_value(), done.value);
+      EXPECT_EQ(host[0], round) << spin_us << " us, round " << round;
+      EXPECT_EQ(host[n - 1], n - 1 + round) << spin_us << " us, round " << round;
+    }
+    EXPECT_EQ(c.validation_error_count(), 0u);
+  }
+}
+
 TEST_F(ComputeCore, ASubmissionKeepsItsBuffersAliveUntilItFinishes) {
   const auto p = fill_pipeline();
   std::weak_ptr<gpu::Buffer> watch;

@@ -265,6 +265,18 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // Any number of reduction workgroups (0: by device; GPUs use more than lavapipe) sums the
+    // same pixels: the same counts, the sums alike up to float rounding.
+    for (int groups : {0, 1, slam::TrackerParams::kGpuReductionWorkgroups, 200}) {
+      slam::TrackerParams q = params;
+      q.reduction_workgroups = groups;
+      const auto [g, c] = gpu_and_cpu(q);
+      const std::string w = what + " with " + std::to_string(groups) + " workgroups";
+      EXPECT_EQ(g.valid_live_pixels, cpu.valid_live_pixels) << w;
+      expect_sums_near(g.icp, c.icp, 2e-3, w + " icp");
+      expect_sums_near(g.rgb, c.rgb, 2e-3, w + " rgb");
+    }
+
     // Depth-noise weighting of the ICP term (TrackerParams::icp_noise_reference_depth_m): the same
     // pairs, the far ones scaled down, GPU and CPU alike; the photometric term untouched.
     {
@@ -764,6 +776,21 @@ TEST_F(Tracking, ExposureChangeIsCompensated) {
   const auto [r_off, e_off] = track_with(false);
   EXPECT_EQ(r_off.live_intensity_gain, 1.0);
   EXPECT_TRUE(r_off.failed || e_off.translation_m > 0.005) << describe(r_off);  // measured: 21 mm
+}
+
+TEST_F(Tracking, ReductionWorkgroupsAreChosenByDeviceUnlessSet) {
+  const slam::TrackerParams saved = tracker_->params();
+  slam::TrackerParams q = saved;
+  q.reduction_workgroups = 0;
+  tracker_->set_params(q);
+  EXPECT_EQ(tracker_->params().reduction_workgroups, ctx().is_software() ? slam::TrackerParams::kCpuReductionWorkgroups
+                                                                         : slam::TrackerParams::kGpuReductionWorkgroups);
+  q.reduction_workgroups = 7;
+  tracker_->set_params(q);
+  EXPECT_EQ(tracker_->params().reduction_workgroups, 7);
+  q.reduction_workgroups = -1;
+  EXPECT_THROW(tracker_->set_params(q), Error);
+  tracker_->set_params(saved);
 }
 
 TEST_F(Tracking, MismatchedInputsThrow) {
