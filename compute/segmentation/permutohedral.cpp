@@ -148,28 +148,29 @@ void barycentric(const std::vector<float>& elevated, const std::vector<int32_t>&
 // Neighbours of every vertex along each lattice direction j: +-(d+1) e_j -+ 1 in the embedding,
 // i.e. coordinate j changes by -+d and every other coordinate by -+1. Absent ones point at an
 // extra vertex (index vertex_count) whose values stay zero, so the blur has no branches.
-std::vector<int32_t> link_neighbours(const KeyTable& table, int d, int32_t vertex_count) {
+void link_neighbours(const KeyTable& table, int d, int32_t vertex_count, std::vector<int32_t>& neighbour) {
   const int d1 = d + 1;
-  std::vector<int32_t> neighbour(static_cast<size_t>(vertex_count) * d1 * 2, vertex_count);
-  std::vector<int32_t> n1(static_cast<size_t>(d)), n2(static_cast<size_t>(d));
-  for (int32_t v = 0; v < vertex_count; ++v) {
-    const int32_t* k = table.key(v);
-    for (int j = 0; j <= d; ++j) {
-      for (int i = 0; i < d; ++i) {
-        n1[static_cast<size_t>(i)] = k[i] - 1;
-        n2[static_cast<size_t>(i)] = k[i] + 1;
+  neighbour.assign(static_cast<size_t>(vertex_count) * d1 * 2, vertex_count);
+  detail::for_range(vertex_count, 512, [&](int64_t v0, int64_t v1) {  // lookups only: any split
+    std::vector<int32_t> n1(static_cast<size_t>(d)), n2(static_cast<size_t>(d));
+    for (int64_t v = v0; v < v1; ++v) {
+      const int32_t* k = table.key(static_cast<int32_t>(v));
+      for (int j = 0; j <= d; ++j) {
+        for (int i = 0; i < d; ++i) {
+          n1[static_cast<size_t>(i)] = k[i] - 1;
+          n2[static_cast<size_t>(i)] = k[i] + 1;
+        }
+        if (j < d) {
+          n1[static_cast<size_t>(j)] = k[j] + d;
+          n2[static_cast<size_t>(j)] = k[j] - d;
+        }
+        const size_t base = (static_cast<size_t>(v) * d1 + static_cast<size_t>(j)) * 2;
+        const int32_t a = table.find(n1.data()), b = table.find(n2.data());
+        neighbour[base] = a >= 0 ? a : vertex_count;
+        neighbour[base + 1] = b >= 0 ? b : vertex_count;
       }
-      if (j < d) {
-        n1[static_cast<size_t>(j)] = k[j] + d;
-        n2[static_cast<size_t>(j)] = k[j] - d;
-      }
-      const size_t base = (static_cast<size_t>(v) * d1 + static_cast<size_t>(j)) * 2;
-      const int32_t a = table.find(n1.data()), b = table.find(n2.data());
-      neighbour[base] = a >= 0 ? a : vertex_count;
-      neighbour[base + 1] = b >= 0 ? b : vertex_count;
     }
-  }
-  return neighbour;
+  });
 }
 
 }  // namespace
@@ -183,25 +184,33 @@ void PermutohedralLattice::init(const float* features, int d, int n) {
   offset_.assign(static_cast<size_t>(n) * d1, 0);
   barycentric_.assign(static_cast<size_t>(n) * d1, 0.0f);
   const std::vector<float> scale = elevation_scale(d);
-  KeyTable table(d, static_cast<size_t>(n) * d1);
-  std::vector<float> elevated(static_cast<size_t>(d1)), bary(static_cast<size_t>(d1) + 1), cf(static_cast<size_t>(d));
-  std::vector<int32_t> rem0(static_cast<size_t>(d1)), rank(static_cast<size_t>(d1)), key(static_cast<size_t>(d));
-  for (int p = 0; p < n; ++p) {
-    elevate(features + static_cast<size_t>(p) * d, scale, d, cf, elevated);
-    enclosing_simplex(elevated, d, rem0, rank);
-    barycentric(elevated, rem0, rank, d, bary);
-    // The simplex's vertices: remainder-0 point plus the canonical simplex's offsets.
-    for (int r = 0; r <= d; ++r) {
-      for (int i = 0; i < d; ++i) {
-        const int rk = rank[static_cast<size_t>(i)];
-        key[static_cast<size_t>(i)] = rem0[static_cast<size_t>(i)] + (rk <= d - r ? r : r - d1);
+  // Each point's simplex (vertex keys and weights) in parallel; then the vertices numbered in point
+  // order, as one pass over the points would number them, whatever the split.
+  std::vector<int32_t>& keys = keys_;
+  keys.resize(static_cast<size_t>(n) * d1 * d);
+  detail::for_range(n, 256, [&](int64_t p0, int64_t p1) {
+    std::vector<float> elevated(static_cast<size_t>(d1)), bary(static_cast<size_t>(d1) + 1), cf(static_cast<size_t>(d));
+    std::vector<int32_t> rem0(static_cast<size_t>(d1)), rank(static_cast<size_t>(d1));
+    for (int64_t p = p0; p < p1; ++p) {
+      elevate(features + static_cast<size_t>(p) * d, scale, d, cf, elevated);
+      enclosing_simplex(elevated, d, rem0, rank);
+      barycentric(elevated, rem0, rank, d, bary);
+      // The simplex's vertices: remainder-0 point plus the canonical simplex's offsets.
+      for (int r = 0; r <= d; ++r) {
+        const size_t o = static_cast<size_t>(p) * d1 + static_cast<size_t>(r);
+        int32_t* key = keys.data() + o * static_cast<size_t>(d);
+        for (int i = 0; i < d; ++i) {
+          const int rk = rank[static_cast<size_t>(i)];
+          key[i] = rem0[static_cast<size_t>(i)] + (rk <= d - r ? r : r - d1);
+        }
+        barycentric_[o] = bary[static_cast<size_t>(r)];
       }
-      offset_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = table.insert(key.data());
-      barycentric_[static_cast<size_t>(p) * d1 + static_cast<size_t>(r)] = bary[static_cast<size_t>(r)];
     }
-  }
+  });
+  KeyTable table(d, static_cast<size_t>(n) * d1);
+  for (size_t o = 0; o < offset_.size(); ++o) offset_[o] = table.insert(keys.data() + o * static_cast<size_t>(d));
   vertex_count_ = table.size();
-  neighbour_ = link_neighbours(table, d, vertex_count_);
+  link_neighbours(table, d, vertex_count_, neighbour_);
 }
 
 void PermutohedralLattice::filter(const float* in, float* out, int v) const {

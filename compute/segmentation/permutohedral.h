@@ -11,7 +11,8 @@ namespace cofusion::segmentation {
 class PermutohedralLattice {
  public:
   // features: n points x d values (point-major), each already divided by its kernel sigma so the
-  // filter approximates exp(-|f_i - f_j|^2 / 2). Builds the lattice (sequential, deterministic).
+  // filter approximates exp(-|f_i - f_j|^2 / 2). Builds the lattice (in parallel; the vertices
+  // are numbered as one pass over the points would, so the result is the same for any split).
   void init(const float* features, int d, int n);
 
   // out[i*v + c] ~= sum_j exp(-|f_i - f_j|^2 / 2) in[j*v + c] (including j = i), for v values per
@@ -35,6 +36,7 @@ class PermutohedralLattice {
   std::vector<int32_t> offset_;     // n*(d+1): lattice vertex of each simplex corner
   std::vector<float> barycentric_;  // n*(d+1): its weight
   std::vector<int32_t> neighbour_;  // vertices*(d+1)*2: the two neighbours along each direction (absent: vertices)
+  std::vector<int32_t> keys_;       // n*(d+1)*d: init()'s simplex corners' keys (kept: no allocation per frame)
   mutable std::vector<Scratch> group_scratch_;
 };
 

@@ -220,21 +220,23 @@ class Clustering {
     update_centres();
   }
 
-  // Assigns every pixel of `lv` to its nearest candidate cluster (rows in fixed chunks; cells of
-  // each chunk in raster order), then optionally sums the clusters for the next update.
+  // Assigns every pixel of `lv` to its nearest candidate cluster (a pixel's choice does not depend
+  // on the split of rows, so they go to as many threads as there are), then optionally sums the
+  // clusters for the next update (in the fixed row chunks, whose order fixes the sums).
   void assign(Level& lv, bool accumulate) {
     const float step = 0.5f * (g_.step_x + g_.step_y) / lv.scale;  // grid step in this level's pixels
     const float spatial_w = (params_.compactness / step) * (params_.compactness / step);
-    if (accumulate) std::fill(partial_.begin(), partial_.end(), 0.0);
-    detail::for_fixed_chunks(lv.height, kChunks, [&](int chunk, int64_t y0, int64_t y1) {
-      for (int cy = 0; cy < g_.gh; ++cy) {
-        const int ya = std::max(static_cast<int>(y0), lv.yb[static_cast<size_t>(cy)]);
-        const int ye = std::min(static_cast<int>(y1), lv.yb[static_cast<size_t>(cy) + 1]);
-        if (ya >= ye) continue;
+    detail::for_range(g_.gh, 1, [&](int64_t cy0, int64_t cy1) {  // rows of cells
+      for (auto cy = static_cast<int>(cy0); cy < cy1; ++cy) {
+        const int ya = lv.yb[static_cast<size_t>(cy)], ye = lv.yb[static_cast<size_t>(cy) + 1];
         for (int cx = 0; cx < g_.gw; ++cx)
           assign_cell(g_.use_depth, lv, c_, g_.gw, g_.gh, cx, cy, ya, ye, spatial_w, g_.depth_w);
       }
-      if (accumulate) accumulate_rows(lv, chunk, static_cast<int>(y0), static_cast<int>(y1));
+    });
+    if (!accumulate) return;
+    std::fill(partial_.begin(), partial_.end(), 0.0);
+    detail::for_fixed_chunks(lv.height, kChunks, [&](int chunk, int64_t y0, int64_t y1) {
+      accumulate_rows(lv, chunk, static_cast<int>(y0), static_cast<int>(y1));
     });
   }
 
