@@ -14,10 +14,11 @@ for t in kernels gpu renderer; do
   echo "== $t tests"; "$d/bin/cofusion_${t}_tests" --gtest_brief=1 2>&1 | grep -E "PASSED|FAILED|Failure|first mismatch"
 done
 # Of the SLAM tests those that compare GPU paths: tracking (lockstep included), the motion
-# kernels, and a whole scene's runs mapped and through staging buffers, which must be identical.
+# kernels, a whole scene's runs mapped and through staging buffers, which must be identical, and
+# the host work beside the GPU against in line.
 echo "== slam tests (GPU paths)"
 "$d/bin/cofusion_slam_tests" --gtest_brief=1 \
-  --gtest_filter='Tracking.*:MotionKernels*:CoFusionScenes.RunsOfOneSceneAreBitIdentical*' 2>&1 |
+  --gtest_filter='Tracking.*:MotionKernels*:CoFusionScenes.RunsOfOneSceneAreBitIdentical*:CoFusionScenes.HostWorkBeside*' 2>&1 |
   grep -E "PASSED|FAILED|Failure"
 $c bench --no-semantic --json "$out/bench.json" > "$out/bench.txt" 2>&1; echo "bench: exit $?"
 grep -E "^device|active model|whole frame|frames per second" "$out/bench.txt"
