@@ -161,8 +161,12 @@ TimelinePoint Stream::submit(CommandList&& list, std::span<const TimelinePoint> 
   list.cmd_.end();
   const uint64_t value = next_value_ + 1;
   std::vector<vk::SemaphoreSubmitInfo> wait_infos;
-  for (const auto& w : waits)
+  const auto add_wait = [&](const TimelinePoint& w) {
     wait_infos.push_back({.semaphore = w.semaphore, .value = w.value, .stageMask = vk::PipelineStageFlagBits2::eAllCommands});
+  };
+  for (const auto& w : waits) add_wait(w);
+  for (const auto& w : next_waits_) add_wait(w);
+  next_waits_.clear();
   vk::SemaphoreSubmitInfo signal{.semaphore = *timeline_, .value = value, .stageMask = vk::PipelineStageFlagBits2::eAllCommands};
   vk::CommandBufferSubmitInfo cmd_info{.commandBuffer = *list.cmd_};
   vk::SubmitInfo2 submit{.waitSemaphoreInfoCount = static_cast<uint32_t>(wait_infos.size()),
@@ -292,17 +296,28 @@ const void* Stream::record_download(CommandList& cmd, const BufferPtr& src, size
 
 void Stream::upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset) {
   if (bytes == 0) return;
+  wait(upload_submitted(dst, src, bytes, dst_offset));
+}
+
+TimelinePoint Stream::upload_submitted(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset) {
   if (dst_offset + bytes > dst->size())
     throw Error("upload of " + std::to_string(bytes) + " bytes into '" + dst->name() + "' (" + std::to_string(dst->size()) +
                 " bytes) is out of range");
-  wait_idle();
+  wait_idle();  // earlier work may still read `dst` or the staging buffer
+  if (bytes == 0) return last_submitted();
   if (dst->mapped()) {
     std::memcpy(static_cast<char*>(dst->mapped()) + dst_offset, src, bytes);
-    return;
+    return last_submitted();
   }
   const BufferPtr& staging = this->staging(bytes);
   std::memcpy(staging->mapped(), src, bytes);
-  run([&](CommandList& cmd) { cmd.copy(staging, dst, bytes, 0, dst_offset); });
+  CommandList cmd = begin();
+  cmd.copy(staging, dst, bytes, 0, dst_offset);
+  return submit(std::move(cmd));
+}
+
+void Stream::wait_next_on_gpu(const TimelinePoint& point) {
+  if (point.semaphore) next_waits_.push_back(point);
 }
 
 void Stream::download(const BufferPtr& src, void* dst, size_t bytes, size_t src_offset) {

@@ -125,6 +125,12 @@ class Stream {
   // each kept and grown as needed.
   void upload(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset = 0);
   void download(const BufferPtr& src, void* dst, size_t bytes, size_t src_offset = 0);
+  // upload() without its wait: returns the point at which `dst` holds the data (the host's copy
+  // of `src` is made before it returns; a mapped `dst` holds it at once).
+  TimelinePoint upload_submitted(const BufferPtr& dst, const void* src, size_t bytes, size_t dst_offset = 0);
+  // The next submission of this stream also waits, on the GPU, for `point` (e.g. another stream's
+  // upload_submitted()); a point without a semaphore is ignored.
+  void wait_next_on_gpu(const TimelinePoint& point);
   // A download recorded into `cmd` after its earlier work, so one submission computes and reads
   // back: returns where the host finds the `bytes` of `src` (from `src_offset`) once that
   // submission has completed (wait for it). The pointer is `src`'s own mapping where it has one,
@@ -157,6 +163,7 @@ class Stream {
     std::unique_ptr<CommandList::Timing> timing;
   };
   void collect_finished();
+  std::vector<TimelinePoint> next_waits_;  // wait_next_on_gpu()
   // Polls the timeline for up to Context::spin_wait_us(); whether `point` was reached.
   bool poll_until_reached(const TimelinePoint& point) const;
   // The upload staging buffer, at least `bytes` large. Only synchronous uploads use it, after waiting

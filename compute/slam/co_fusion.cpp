@@ -166,7 +166,9 @@ void CoFusion::upload_labels(const std::vector<uint8_t>& slots) {
   tbb::parallel_for(tbb::blocked_range<size_t>(0, slots.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i < r.end(); ++i) wide[i] = slots[i] == kNoSlot ? 0xFFFFFFFFu : slots[i];
   });
-  main_stream_.upload(labels_, wide.data(), wide.size() * sizeof(uint32_t));
+  // No wait here: the label map's readers (fusion, duplicate removal, re-activation) wait for the
+  // copy on the GPU (Stream::wait_next_on_gpu), the next frame's through the preprocessing.
+  labels_uploaded_ = main_stream_.upload_submitted(labels_, wide.data(), wide.size() * sizeof(uint32_t));
 }
 
 // Predict into the previous view and mask the live vertices to the pixels the model owned in the
@@ -488,6 +490,7 @@ void CoFusion::model_costs(const Model& m, const float* depth_m, std::vector<flo
 void CoFusion::fuse_model(Model& m, const std::vector<int>& duplicate_slots, const PixelRect& fuse_rect,
                           uint32_t also_slots) {
   const Eigen::Isometry3d T_camera_model = T_world_camera_.inverse() * m.surfels.T_world_model;
+  m.stream.wait_next_on_gpu(labels_uploaded_);
   for (int duplicate_slot : duplicate_slots)
     surfels_.remove_region(m.stream, m.surfels, live_, T_camera_model, labels_, static_cast<unsigned>(duplicate_slot),
                            params_.lifecycle.duplicate_margin_rel);

@@ -624,6 +624,7 @@ class CoFusion {
   std::optional<Eigen::Isometry3d> refused_T_world_tracked_;
   int agreeing_refusals_ = 0;
   gpu::BufferPtr labels_;             // uint per pixel: model slot of the previous segmentation
+  gpu::TimelinePoint labels_uploaded_;  // where the GPU has the last labels upload_labels() gave it
   std::vector<uint8_t> slots_;        // host copy of labels_ (255 = none)
   // Per pixel, the slot of the model the segmentation gave it to where that model's motion does not
   // explain it (its cost is over MotionCostParams::max_explained_cost_m: a texture edge the fused

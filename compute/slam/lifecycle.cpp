@@ -983,6 +983,7 @@ bool CoFusion::try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroi
   const LifecycleParams& p = params_.lifecycle;
   std::optional<std::pair<TrackingResult, Eigen::Isometry3d>> best;
   for (const Eigen::Isometry3d& T_camera_model : starts) {
+    m.stream.wait_next_on_gpu(labels_uploaded_);
     m.stream.run([&](gpu::CommandList& c) {
       surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_);
       motion_.mask_levels(c, live_.levels, m.masked, labels_, 1u << slot);

@@ -277,6 +277,14 @@ void SurfelPipelines::subsample(gpu::CommandList& cmd, const kernels::FramePyram
 }
 
 namespace {
+// A model's counter set to {count, 0, 0, 0} on the GPU, in the submission that uses it (no upload
+// and round trip of its own).
+void reset_counter(gpu::CommandList& cmd, const gpu::BufferPtr& counter, uint32_t count) {
+  cmd.fill(counter, count, 0, sizeof(uint32_t));
+  cmd.fill(counter, 0u, sizeof(uint32_t), 3 * sizeof(uint32_t));
+  cmd.barrier();
+}
+
 // Merge search over the fusion's index map, in the part of the image this fusion covered (the
 // index map's rows outside its rectangle are stale).
 L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, const FusionParams& params) {
@@ -439,8 +447,6 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   stats.culled = model.make_room(stream, incoming, params);
   stats.surfels_before = model.count_;
   const unsigned most_surfels = model.count_ + incoming;
-  const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
-  stream.upload(model.counter_, counter_init, sizeof counter_init);
   const int S = params.index_map_scale;
   model.ensure_fusion_scratch(pixels, size_t(pixels) * size_t(S) * size_t(S));
   const gpu::BufferPtr& index_map = model.index_map_;
@@ -465,7 +471,9 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
   const size_t row_bytes = size_t(k.width) * size_t(S) * 8;
   const int ring_rows = (std::max(params.new_surfel_clearance_cells, 0) + S - 1) / S;
   const int clear_y0 = std::max(area.y0 - ring_rows, 0), clear_y1 = std::min(area.y1 + ring_rows, k.height);
+  const uint32_t* counter = nullptr;  // read back in the same submission
   stream.run([&](gpu::CommandList& cmd) {
+    reset_counter(cmd, model.counter_, model.count_);
     cmd.fill(index_map, 0xFFFFFFFFu, size_t(clear_y0) * size_t(S) * row_bytes,
              size_t(clear_y1 - clear_y0) * size_t(S) * row_bytes);
     cmd.fill(model.claim_, 0xFFFFFFFFu, 0, size_t(model.count_) * 4);
@@ -490,9 +498,8 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
     }
     cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, blocks, keep_mask, cp,
             model.merge_target_, model.claim_);
+    counter = static_cast<const uint32_t*>(stream.record_download(cmd, model.counter_, 4 * sizeof(uint32_t)));
   });
-  uint32_t counter[4];
-  stream.download(model.counter_, counter, sizeof counter);
   stats.surfels_after_fusion = std::min(counter[0], model.capacity_);
   stats.surfels_after_cleanup = counter[1];
   model.count_ = counter[1];
@@ -522,15 +529,14 @@ unsigned SurfelPipelines::remove_region(gpu::Stream& stream, SurfelModel& model,
   p.surfel_count = model.count_;
   p.label = label;
   p.margin_rel = margin_rel;
-  const uint32_t counter_init[4] = {model.count_, 0, 0, 0};
-  stream.upload(model.counter_, counter_init, sizeof counter_init);
   const gpu::BufferPtr& blocks = model.compaction_blocks(model.count_);
   const gpu::BufferPtr& keep_mask = model.compaction_keep_mask(model.count_);
+  const uint32_t* counter = nullptr;  // read back in the same submission
   stream.run([&](gpu::CommandList& cmd) {
+    reset_counter(cmd, model.counter_, model.count_);
     remove_region(cmd, model.surfels_, model.scratch_, l0.depth_m, labels, model.counter_, blocks, keep_mask, p);
+    counter = static_cast<const uint32_t*>(stream.record_download(cmd, model.counter_, 4 * sizeof(uint32_t)));
   });
-  uint32_t counter[4];
-  stream.download(model.counter_, counter, sizeof counter);
   const unsigned removed = model.count_ - counter[1];
   std::swap(model.surfels_, model.scratch_);
   model.count_ = counter[1];

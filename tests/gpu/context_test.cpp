@@ -359,6 +359,33 @@ TEST_F(ComputeCore, WaitsThatPollFirstReturnOnlyOnceTheWorkIsDone) {
   }
 }
 
+// Stream::upload_submitted returns without waiting; another stream's next submission waits for it
+// on the GPU (wait_next_on_gpu) and sees the data, through a staging buffer and mapped alike.
+TEST_F(ComputeCore, AnUploadWithoutWaitIsSeenByTheStreamThatWaitsForItOnTheGpu) {
+  gpu::Context staging_ctx(staging_options());
+  for (gpu::Context* c : {&ctx(), &staging_ctx}) {
+    SCOPED_TRACE(c == &ctx() ? "fixture context" : "staging context");
+    gpu::Stream a(*c, 0, "uploading"), b(*c, 1, "reading");
+    const uint32_t n = 640 * 480;
+    auto labels = gpu::Buffer::create(*c, n * 4, "labels"), copy = gpu::Buffer::create(*c, n * 4, "copy");
+    for (uint32_t round = 0; round < 3; ++round) {
+      std::vector<uint32_t> data(n);
+      std::iota(data.begin(), data.end(), round * 7);
+      const gpu::TimelinePoint uploaded = a.upload_submitted(labels, data.data(), n * 4);
+      data.assign(n, 0);  // the host's copy was made before upload_submitted returned
+      b.wait_next_on_gpu(uploaded);
+      b.run([&](gpu::CommandList& cmd) { cmd.copy(labels, copy, n * 4); });
+      const auto out = b.download<uint32_t>(copy, n);
+      EXPECT_EQ(out[0], round * 7) << "round " << round;
+      EXPECT_EQ(out[n - 1], n - 1 + round * 7) << "round " << round;
+    }
+    EXPECT_THAT([&] { a.upload_submitted(labels, nullptr, n * 4 + 4); }, ThrowsMessage<Error>(HasSubstr("labels")));
+    b.wait_next_on_gpu({});  // no semaphore: ignored
+    b.run([](gpu::CommandList&) {});
+  }
+  EXPECT_EQ(staging_ctx.validation_error_count(), 0u);
+}
+
 TEST_F(ComputeCore, ASubmissionKeepsItsBuffersAliveUntilItFinishes) {
   const auto p = fill_pipeline();
   std::weak_ptr<gpu::Buffer> watch;
