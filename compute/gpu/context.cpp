@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <optional>
+#include <thread>
 
 namespace cofusion::gpu {
 namespace {
@@ -233,9 +234,10 @@ Context::Context(const ContextOptions& options) : options_(options) {
   if (!info_.usable) throw Error("Vulkan device '" + info_.name + "' cannot be used: " + info_.why_unusable);
   physical_device_ = std::move(devices[chosen]);
   features_ = query_features(physical_device_);
-  spin_wait_us_ = options_.spin_wait_us >= 0 ? static_cast<uint32_t>(options_.spin_wait_us)
-                  : is_software()           ? 0u
-                                            : kDefaultSpinWaitUs;
+  const bool spare_threads = std::thread::hardware_concurrency() >= kMinThreadsToSpin;
+  spin_wait_us_ = options_.spin_wait_us >= 0           ? static_cast<uint32_t>(options_.spin_wait_us)
+                  : is_software() || !spare_threads ? 0u
+                                                    : kDefaultSpinWaitUs;
   create_device();
 }
 

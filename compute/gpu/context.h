@@ -32,9 +32,11 @@ struct ContextOptions {
   // slower, else every queue of the family, up to 8). With 1, per-model work shares one queue.
   uint32_t max_compute_queues = 0;
   // How long a wait for the GPU first polls the timeline on the host before it sleeps in the
-  // driver, in microseconds (negative: by device - 0 where the device is the CPU itself, whose
-  // cores a polling host would take; kDefaultSpinWaitUs elsewhere, where a sleeping wait wakes
-  // tens of microseconds after the GPU finishes and the frame has dozens of short round trips).
+  // driver, in microseconds. Negative: by device - kDefaultSpinWaitUs on a GPU, where a sleeping
+  // wait wakes up to 0.1 ms after the GPU finishes and a frame has dozens of short round trips;
+  // 0 where the device is the CPU itself, whose cores a polling host would take, or where the host
+  // has fewer than kMinThreadsToSpin hardware threads (the polling thread would take one from the
+  // CPU jobs that run beside the GPU's work).
   int spin_wait_us = -1;
   // Called for every validation message of error severity (after it is counted and printed).
   // Tests turn it into a test failure.
@@ -115,6 +117,7 @@ class Context {
   // ContextOptions::spin_wait_us resolved for this device.
   uint32_t spin_wait_us() const { return spin_wait_us_; }
   static constexpr uint32_t kDefaultSpinWaitUs = 2000;
+  static constexpr unsigned kMinThreadsToSpin = 4;
 
   uint32_t compute_queue_count() const { return static_cast<uint32_t>(queues_.size()); }
   uint32_t compute_queue_family() const { return queue_family_; }
