@@ -126,7 +126,8 @@ struct TrackerParams {
 
   // GPU only: workgroups of the reduction (each loops over its share of the pixels); 0 = by
   // device. A few large ones suit a device that is the CPU itself (kCpuReductionWorkgroups, for
-  // lavapipe's threads); a GPU wants enough to fill its multiprocessors (kGpuReductionWorkgroups).
+  // lavapipe's threads); a GPU wants more to spread over its multiprocessors, but not so many
+  // that adding their partial sums on the host outweighs it (kGpuReductionWorkgroups).
   int reduction_workgroups = 0;
   static constexpr int kCpuReductionWorkgroups = 16;
   static constexpr int kGpuReductionWorkgroups = 64;

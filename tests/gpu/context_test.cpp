@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <numeric>
 #include <random>
 #include <thread>
@@ -385,6 +386,24 @@ TEST_F(ComputeCore, AnUploadWithoutWaitIsSeenByTheStreamThatWaitsForItOnTheGpu) 
     b.run([](gpu::CommandList&) {});
   }
   EXPECT_EQ(staging_ctx.validation_error_count(), 0u);
+}
+
+// wait_next_on_gpu holds the next submission (and only that one) until the point is reached: a
+// point not yet signalled (here by the host, as a single queue would otherwise be blocked by the
+// waiting submission itself) keeps the submission from completing until it is.
+TEST_F(ComputeCore, TheNextSubmissionWaitsOnTheGpuForThePointItWasGiven) {
+  vk::SemaphoreTypeCreateInfo type{.semaphoreType = vk::SemaphoreType::eTimeline, .initialValue = 0};
+  vk::raii::Semaphore gate(ctx().device(), vk::SemaphoreCreateInfo{.pNext = &type});
+  gpu::Stream s(ctx(), 0, "held");
+  s.wait_next_on_gpu({*gate, 1});
+  const gpu::TimelinePoint held = s.submit(s.begin());
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_LT(s.completed_value(), held.value) << "the submission did not wait for the point";
+  ctx().device().signalSemaphore(vk::SemaphoreSignalInfo{.semaphore = *gate, .value = 1});
+  s.wait(held);
+  const gpu::TimelinePoint after = s.submit(s.begin());  // the wait was for one submission only
+  s.wait(after);
+  EXPECT_GE(s.completed_value(), after.value);
 }
 
 TEST_F(ComputeCore, ASubmissionKeepsItsBuffersAliveUntilItFinishes) {
