@@ -58,6 +58,11 @@ vec3 intensity_jacobian(vec2 g, vec3 q) {
 float huber_sqrt_weight(float r, float delta) {
   return delta > 0.0 && abs(r) > delta ? sqrt(delta / abs(r)) : 1.0;
 }
+// sqrt of the gradient weight c^2 / (c^2 + |g|^2) (IcpRgbReduceParams::gradient_weight_c).
+float gradient_sqrt_weight(vec2 g) {
+  const float c2 = p.gradient_weight_c * p.gradient_weight_c;
+  return c2 > 0.0 ? sqrt(c2 / (c2 + dot(g, g))) : 1.0;
+}
 // Weights of the pixels (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1) at fraction a.
 vec4 bilinear_weights(vec2 a) {
   return vec4((1.0 - a.x) * (1.0 - a.y), a.x * (1.0 - a.y), (1.0 - a.x) * a.y, a.x * a.y);
@@ -132,7 +137,7 @@ void main() {
           if ((p.flags & ICP_RGB_FLAG_ESM) != 0u)
             g = 0.5 * (g + p.live_intensity_gain * texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
-          const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
+          const float sw = huber_sqrt_weight(r, p.rgb_huber_delta) * gradient_sqrt_weight(g);
           accumulate(rgb, sw * dI_dq, sw * cross(q, dI_dq), sw * r);
         }
       }
@@ -175,7 +180,7 @@ void main() {
       const vec2 g = p.live_intensity_gain * (wts.x * texel_vec2(live_gradient, i00) + wts.y * texel_vec2(live_gradient, i10) +
                       wts.z * texel_vec2(live_gradient, i01) + wts.w * texel_vec2(live_gradient, i11)) * (1.0 / 255.0);
       const vec3 G = R * intensity_jacobian(g, x_live);
-      const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
+      const float sw = huber_sqrt_weight(r, p.rgb_huber_delta) * gradient_sqrt_weight(g);
       accumulate(rgb, -sw * G, -sw * cross(v_ref.xyz, G), sw * r);
     }
   }

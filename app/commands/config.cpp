@@ -101,6 +101,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("photometric_huber_k", c.photometric_huber_k)
       .field("icp_huber_k", c.icp_huber_k)
       .field("icp_noise_reference_depth_m", c.icp_noise_reference_depth_m)
+      .field("photometric_gradient_c", c.photometric_gradient_c)
       .field("exposure_compensation", c.exposure_compensation)
       .field("max_exposure_gain", c.max_exposure_gain)
       .field("min_correspondences", c.min_correspondences)

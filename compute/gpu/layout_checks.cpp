@@ -43,7 +43,7 @@ static_assert(sizeof(MotionResidualParams) == 92 && offsetof(MotionResidualParam
 static_assert(sizeof(RemoveRegionParams) <= 128 && sizeof(MaskVerticesParams) <= 128 &&
               sizeof(MotionResidualParams) <= 128);
 static_assert(sizeof(Surfel) == 48 && offsetof(Surfel, nx) == 16 && offsetof(Surfel, colour_rgba8) == 32);
-static_assert(sizeof(IcpRgbReduceParams) == 124 && offsetof(IcpRgbReduceParams, icp_noise_reference_depth_m) == 120 && offsetof(IcpRgbReduceParams, rgb_huber_delta) == 104 &&
+static_assert(sizeof(IcpRgbReduceParams) == 128 && offsetof(IcpRgbReduceParams, gradient_weight_c) == 124 && offsetof(IcpRgbReduceParams, icp_noise_reference_depth_m) == 120 && offsetof(IcpRgbReduceParams, rgb_huber_delta) == 104 &&
               offsetof(IcpRgbReduceParams, outline_occlusion_margin_m) == 112 && offsetof(IcpRgbReduceParams, icp_huber_delta_m) == 116 &&
               offsetof(IcpRgbReduceParams, live_intensity_gain) == 108 && offsetof(IcpRgbReduceParams, fx) == 48 &&
               offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, flags) == 84 &&

@@ -110,6 +110,7 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   p.rgb_huber_delta = static_cast<float>(scales.rgb);
   p.icp_huber_delta_m = static_cast<float>(scales.icp_m);
   p.icp_noise_reference_depth_m = static_cast<float>(params_.icp_noise_reference_depth_m);
+  p.gradient_weight_c = static_cast<float>(params_.photometric_gradient_c);
   p.flags = (params_.use_photometric ? ICP_RGB_FLAG_PHOTOMETRIC : 0u) | (params_.esm_gradient ? ICP_RGB_FLAG_ESM : 0u) |
             (params_.outline_photometric ? ICP_RGB_FLAG_OUTLINE : 0u);
   p.live_intensity_gain = static_cast<float>(scales.live_gain);

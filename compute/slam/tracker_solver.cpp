@@ -62,6 +62,7 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
   if (!(p.icp_huber_k >= 0)) bad("icp_huber_k must be >= 0");
   if (!(p.max_exposure_gain >= 1 && std::isfinite(p.max_exposure_gain))) bad("max_exposure_gain must be >= 1");
+  if (!(p.photometric_gradient_c >= 0 && std::isfinite(p.photometric_gradient_c))) bad("photometric_gradient_c must be >= 0");
   if (!(p.icp_noise_reference_depth_m >= 0 && std::isfinite(p.icp_noise_reference_depth_m)))
     bad("icp_noise_reference_depth_m must be >= 0");
   if (!(p.outline_occlusion_margin_m >= 0 && std::isfinite(p.outline_occlusion_margin_m)))

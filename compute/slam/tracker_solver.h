@@ -85,6 +85,10 @@ struct TrackerParams {
   // default: 1 m took Bonn crowd from 12.8-15 to 6.9 cm but the generated walking_people scene
   // from 3.6 mm to 3.1 cm (docs/experiments.md); `--config` turns it on.
   double icp_noise_reference_depth_m = 0;
+  // Gradient-dependent photometric weights (as DSO's): a residual counts by c^2 / (c^2 + |g|^2),
+  // g the intensity gradient there (intensity / 255 per pixel) and c this; 0 = every residual by
+  // its robust weight alone.
+  double photometric_gradient_c = 0;
   // Exposure compensation: the live intensity is multiplied by a gain, re-estimated at every
   // iteration as sum(I_reference) / sum(I_live) over the photometric term's pixels, before the
   // photometric residuals are formed. Auto-exposure changes a frame's brightness by 20% within a

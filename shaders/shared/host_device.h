@@ -438,6 +438,9 @@ struct IcpRgbReduceParams {
   // ICP: a live point deeper than this (metres) has its residual and Jacobian scaled by
   // sigma(reference) / sigma(depth) (shared/depth_noise.h); 0 = no scaling.
   float icp_noise_reference_depth_m;
+  // Photometric: each residual (and Jacobian) is scaled by sqrt(c^2 / (c^2 + |g|^2)), g its
+  // intensity gradient (intensity / 255 per pixel) and c this; 0 = no scaling.
+  float gradient_weight_c;
 };
 
 

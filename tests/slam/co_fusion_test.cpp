@@ -420,6 +420,40 @@ INSTANTIATE_TEST_SUITE_P(Cans, SmallObjectScene,
                                            SmallObjectCase{"SlidingSlowly", "towards_slow.json", 8}),
                          [](const ::testing::TestParamInfo<SmallObjectCase>& c) { return std::string(c.param.name); });
 
+// An unsegmented object that starts slowly drags the camera where the static scene constrains it
+// weakly (docs/validation/crossing.json: box b, a checker box, slides from frame 20 over a table
+// that holds no sideways motion; the default camera follows it by up to 17 mm until it is found at
+// 28, and box a, found at 24 meanwhile, keeps that offset: 7 mm of drift). Gradient-dependent
+// photometric weights (TrackerParams::photometric_gradient_c, off by default: they cost TUM
+// fr1/rpy and Bonn crowd accuracy, docs/experiments.md) keep the checker's edges from outweighing
+// the rest of the view: measured camera 1.2 mm, box b found at 26, drifts 1.0 and 0.9 mm. Bounds:
+// camera within 2 mm (3.0 mm by default), both boxes found within issue 23's 6 frames of their
+// start and drifting within its 5 mm.
+TEST_F(CoFusionScenes, GradientWeightsKeepTheCameraOffASlowlyStartingTexturedBoxSlow) {
+  const synthetic::SyntheticSequence seq(
+      synthetic::load_scene((source_dir() / "docs" / "validation" / "crossing.json").string()), 0);
+  slam::CoFusionParams params;
+  params.slam.tracker.photometric_gradient_c = 0.05;
+  const SceneRun r = run(seq, params);
+  for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
+  EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.002);
+  const int box_b_starts = 20;
+  for (int k : {1, 2}) {
+    int found = -1, id = 0;
+    for (int f = 0; f < seq.size() && found < 0; ++f)
+      for (const auto& m : r.frames[size_t(f)].active)
+        if (m.id != 0 && iou(r.gt_masks[size_t(f)], r.frames[size_t(f)].labels, k, m.id) >= 0.5) found = f, id = m.id;
+    ASSERT_GE(found, 0) << "box " << k << " was never found";
+    const double drift_m = object_errors(seq, r, k, model_trajectory(seq, r, id)).drift_translation_m.rmse;
+    std::printf("  box %d found at frame %d (model %d), drift %.1f mm RMSE\n", k, found, id, 1e3 * drift_m);
+    EXPECT_LE(drift_m, kMaxDriftM) << "box " << k;
+    if (k == 2) {
+      EXPECT_LE(found, box_b_starts + kMaxDiscoveryFrames);
+    }
+  }
+  EXPECT_EQ(object_model_ids(r).size(), 2u);
+}
+
 // Objects carried into the view fast (table_placement's ball: 3.4 cm per frame) move out of the
 // pixels a new model is masked to before it is first tracked. Its first tracking starts from the
 // region's motion over the frame before it spawned; from a zero guess each new model stayed put,

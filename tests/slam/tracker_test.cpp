@@ -292,6 +292,26 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // Gradient-dependent photometric weights (TrackerParams::photometric_gradient_c), on the direct
+    // and the outline term: the same residuals, those on strong gradients scaled down, GPU and CPU
+    // alike; the ICP term untouched.
+    {
+      slam::TrackerParams weighted = params;
+      weighted.photometric_gradient_c = 0.05;
+      weighted.outline_photometric = true;
+      slam::TrackerParams unweighted = weighted;
+      unweighted.photometric_gradient_c = 0;
+      const auto [g, c] = gpu_and_cpu(weighted);
+      const auto [g_plain, c_plain] = gpu_and_cpu(unweighted);
+      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " gradient-weighted rgb");
+      EXPECT_EQ(c.icp, cpu.icp) << what;
+      EXPECT_EQ(c.rgb[28], c_plain.rgb[28]) << what;
+      if (s.w >= 160) {
+        EXPECT_LT(c.rgb[27], 0.98 * c_plain.rgb[27]) << what << ": no residual was scaled down";
+        EXPECT_LT(c.rgb[0], 0.98 * c_plain.rgb[0]) << what << ": no Jacobian was scaled down";
+      }
+    }
+
     // An exposure gain on the live intensity (IterationScales::live_gain), with the outline term:
     // GPU and CPU alike; the intensity sums (before the gain) match too.
     {
