@@ -29,6 +29,9 @@ void require_buffer(const gpu::BufferPtr& buffer, size_t bytes, const std::strin
     throw Error(what + " ('" + buffer->name() + "') holds " + std::to_string(buffer->size()) + " bytes, needs " +
                 std::to_string(bytes));
 }
+
+// The reductions read every binding but the partial sums through its texel view.
+uint32_t reduction_texel_bindings() { return ((1u << 10) - 1u) & ~(1u << ICP_RGB_BINDING_PARTIALS); }
 }  // namespace
 
 void check_levels(const std::vector<kernels::FramePyramid::Level>& live,
@@ -66,8 +69,7 @@ Tracker::Tracker(gpu::Context& ctx, TrackerParams params)
     : ctx_(ctx),
       params_(validated(std::move(params))),
       reduce_(ctx, "icp_rgb_reduce", shaders::icp_rgb_reduce_comp(), 10, sizeof(L::IcpRgbReduceParams),
-              // every binding but the partial sums is read through its texel view
-              ((1u << 10) - 1u) & ~(1u << ICP_RGB_BINDING_PARTIALS)) {
+              reduction_texel_bindings()) {
   const auto& f = ctx.features();
   if (!f.subgroup_arithmetic)
     throw Error("Tracker: device '" + ctx.info().name + "' lacks subgroup arithmetic in compute shaders");
@@ -84,6 +86,10 @@ void Tracker::set_params(const TrackerParams& requested) {
   if (params.reduction_workgroups == 0)
     params.reduction_workgroups = ctx_.is_software() ? TrackerParams::kCpuReductionWorkgroups
                                                      : TrackerParams::kGpuReductionWorkgroups;
+  if (params.photometric_gradient_c > 0 && !reduce_gradient_weighted_)
+    reduce_gradient_weighted_.emplace(ctx_, "icp_rgb_reduce_gradient_weighted",
+                                      shaders::icp_rgb_reduce_gradient_weighted_comp(), 10,
+                                      sizeof(L::IcpRgbReduceParams), reduction_texel_bindings());
   const size_t bytes = static_cast<size_t>(params.reduction_workgroups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
   if (!partials_ || partials_->size() < bytes) partials_ = gpu::Buffer::create(ctx_, bytes, "tracker partial sums");
   params_ = params;
@@ -130,7 +136,7 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   if (params_.outline_photometric && !live.depth_m) throw Error("Tracker: the outline term needs the live level's depth");
   const gpu::BufferPtr& live_depth = live.depth_m ? live.depth_m : live.intensity;
   if (cmd.profiled()) cmd.set_profile_label(std::to_string(live.width) + "x" + std::to_string(live.height));
-  cmd.dispatch(reduce_,
+  cmd.dispatch(params_.photometric_gradient_c > 0 ? *reduce_gradient_weighted_ : reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
                 reference.gradient, partials_, live.gradient, live_depth},
                p, groups);

@@ -70,6 +70,9 @@ class Tracker {
   gpu::Context& ctx_;
   TrackerParams params_;
   gpu::ComputePipeline reduce_;
+  // The reduction with gradient-dependent photometric weights (TrackerParams::photometric_gradient_c),
+  // created when first needed.
+  std::optional<gpu::ComputePipeline> reduce_gradient_weighted_;
   gpu::BufferPtr partials_;
   // Where the host reads the partial sums when partials_ is not mapped (a discrete GPU).
   gpu::BufferPtr partials_readback_;
