@@ -306,6 +306,8 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       expect_sums_near(g.rgb, c.rgb, 2e-3, what + " gradient-weighted rgb");
       EXPECT_EQ(c.icp, cpu.icp) << what;
       EXPECT_EQ(c.rgb[28], c_plain.rgb[28]) << what;
+      // The rendered room's gradients are gentle at 640x480 (its sum r^2 drops by about 5 % there):
+      // these only show the weights were applied; the GPU-CPU match above shows they agree.
       if (s.w >= 160) {
         EXPECT_LT(c.rgb[27], 0.98 * c_plain.rgb[27]) << what << ": no residual was scaled down";
         EXPECT_LT(c.rgb[0], 0.98 * c_plain.rgb[0]) << what << ": no Jacobian was scaled down";
