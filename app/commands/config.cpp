@@ -102,6 +102,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("icp_huber_k", c.icp_huber_k)
       .field("icp_noise_reference_depth_m", c.icp_noise_reference_depth_m)
       .field("photometric_gradient_c", c.photometric_gradient_c)
+      .field("photometric_cauchy_k", c.photometric_cauchy_k)
       .field("exposure_compensation", c.exposure_compensation)
       .field("max_exposure_gain", c.max_exposure_gain)
       .field("min_correspondences", c.min_correspondences)

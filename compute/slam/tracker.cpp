@@ -86,10 +86,9 @@ void Tracker::set_params(const TrackerParams& requested) {
   if (params.reduction_workgroups == 0)
     params.reduction_workgroups = ctx_.is_software() ? TrackerParams::kCpuReductionWorkgroups
                                                      : TrackerParams::kGpuReductionWorkgroups;
-  if (params.photometric_gradient_c > 0 && !reduce_gradient_weighted_)
-    reduce_gradient_weighted_.emplace(ctx_, "icp_rgb_reduce_gradient_weighted",
-                                      shaders::icp_rgb_reduce_gradient_weighted_comp(), 10,
-                                      sizeof(L::IcpRgbReduceParams), reduction_texel_bindings());
+  if ((params.photometric_gradient_c > 0 || params.photometric_cauchy_k > 0) && !reduce_reweighted_)
+    reduce_reweighted_.emplace(ctx_, "icp_rgb_reduce_reweighted", shaders::icp_rgb_reduce_reweighted_comp(), 10,
+                               sizeof(L::IcpRgbReduceParams), reduction_texel_bindings());
   const size_t bytes = static_cast<size_t>(params.reduction_workgroups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
   if (!partials_ || partials_->size() < bytes) partials_ = gpu::Buffer::create(ctx_, bytes, "tracker partial sums");
   params_ = params;
@@ -118,7 +117,8 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   p.icp_noise_reference_depth_m = static_cast<float>(params_.icp_noise_reference_depth_m);
   p.gradient_weight_c = static_cast<float>(params_.photometric_gradient_c);
   p.flags = (params_.use_photometric ? ICP_RGB_FLAG_PHOTOMETRIC : 0u) | (params_.esm_gradient ? ICP_RGB_FLAG_ESM : 0u) |
-            (params_.outline_photometric ? ICP_RGB_FLAG_OUTLINE : 0u);
+            (params_.outline_photometric ? ICP_RGB_FLAG_OUTLINE : 0u) |
+            (params_.photometric_cauchy_k > 0 ? ICP_RGB_FLAG_CAUCHY : 0u);
   p.live_intensity_gain = static_cast<float>(scales.live_gain);
   p.outline_occlusion_margin_m = static_cast<float>(params_.outline_occlusion_margin_m);
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
@@ -136,7 +136,7 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   if (params_.outline_photometric && !live.depth_m) throw Error("Tracker: the outline term needs the live level's depth");
   const gpu::BufferPtr& live_depth = live.depth_m ? live.depth_m : live.intensity;
   if (cmd.profiled()) cmd.set_profile_label(std::to_string(live.width) + "x" + std::to_string(live.height));
-  cmd.dispatch(params_.photometric_gradient_c > 0 ? *reduce_gradient_weighted_ : reduce_,
+  cmd.dispatch(reweighted() ? *reduce_reweighted_ : reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
                 reference.gradient, partials_, live.gradient, live_depth},
                p, groups);

@@ -51,6 +51,16 @@ double huber_sqrt_weight(double r, double delta) {
   return delta > 0 && std::abs(r) > delta ? std::sqrt(delta / std::abs(r)) : 1.0;
 }
 
+// Cauchy's weight 1 / (1 + (r / delta)^2), applied as its sqrt (TrackerParams::photometric_cauchy_k).
+double cauchy_sqrt_weight(double r, double delta) {
+  return delta > 0 ? 1.0 / std::sqrt(1.0 + (r / delta) * (r / delta)) : 1.0;
+}
+
+// A photometric residual's robust sqrt weight: Cauchy's or Huber's (TrackerParams).
+double photometric_robust_sqrt_weight(double r, double delta, const TrackerParams& params) {
+  return params.photometric_cauchy_k > 0 ? cauchy_sqrt_weight(r, delta) : huber_sqrt_weight(r, delta);
+}
+
 // sqrt of the gradient weight c^2 / (c^2 + |g|^2) (TrackerParams::photometric_gradient_c).
 double gradient_sqrt_weight(double gx, double gy, double c) {
   return c > 0 ? std::sqrt(c * c / (c * c + gx * gx + gy * gy)) : 1.0;
@@ -125,7 +135,7 @@ void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::
       if (!(std::abs(r) <= params.max_intensity_diff)) continue;
       const double gx = gain * b(live.gradient, gradient_x) / 255.0, gy = gain * b(live.gradient, gradient_y) / 255.0;
       const Eigen::Vector3d G = R * intensity_jacobian(gx, gy, k, x_live);
-      const double sw = huber_sqrt_weight(r, scales.rgb) * gradient_sqrt_weight(gx, gy, params.photometric_gradient_c);
+      const double sw = photometric_robust_sqrt_weight(r, scales.rgb, params) * gradient_sqrt_weight(gx, gy, params.photometric_gradient_c);
       Vector6d J;
       J << -sw * G, -sw * v_ref.cross(G);
       add(sums.rgb, J, sw * r);
@@ -190,7 +200,7 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
           gy = 0.5 * (gy + scales.live_gain * live.gradient.at(u, v).y / 255.0);
         }
         const Eigen::Vector3d dI_dq = intensity_jacobian(gx, gy, k, q);
-        const double sw = huber_sqrt_weight(r, scales.rgb) * gradient_sqrt_weight(gx, gy, params.photometric_gradient_c);
+        const double sw = photometric_robust_sqrt_weight(r, scales.rgb, params) * gradient_sqrt_weight(gx, gy, params.photometric_gradient_c);
         Vector6d J;
         J << sw * dI_dq, sw * q.cross(dI_dq);
         add(sums.rgb, J, sw * r);

@@ -62,6 +62,7 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
   if (!(p.icp_huber_k >= 0)) bad("icp_huber_k must be >= 0");
   if (!(p.max_exposure_gain >= 1 && std::isfinite(p.max_exposure_gain))) bad("max_exposure_gain must be >= 1");
+  if (!(p.photometric_cauchy_k >= 0 && std::isfinite(p.photometric_cauchy_k))) bad("photometric_cauchy_k must be >= 0");
   if (!(p.photometric_gradient_c >= 0 && std::isfinite(p.photometric_gradient_c))) bad("photometric_gradient_c must be >= 0");
   if (!(p.icp_noise_reference_depth_m >= 0 && std::isfinite(p.icp_noise_reference_depth_m)))
     bad("icp_noise_reference_depth_m must be >= 0");
@@ -93,7 +94,7 @@ void take_statistics(const LinearSystemSums& s, const TrackerParams& params, Tra
   result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
   result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
   result.live_intensity_gain = scales.live_gain;
-  scales = {params.icp_huber_k * result.icp_rms_m, params.photometric_huber_k * result.rgb_rms,
+  scales = {params.icp_huber_k * result.icp_rms_m, params.photometric_robust_k() * result.rgb_rms,
             exposure_gain(s, params, scales.live_gain)};
 }
 

@@ -72,6 +72,16 @@ struct TrackerParams {
   // fr1/rpy 2.9 vs 3.0 cm. A fixed delta, or robust weights only at the finer levels, lost either
   // fr1/rpy (4-20 cm) or the box.
   double photometric_huber_k = 1.345;
+  // A redescending photometric loss instead: with k > 0, Cauchy's weight 1 / (1 + (r / delta)^2),
+  // delta = this times the previous iteration's RMS photometric residual (2.385: 95 % efficiency
+  // for Gaussian noise), whose pull falls off for large residuals where Huber's stays constant.
+  // 0 = Huber's, by photometric_huber_k. Off by default: it keeps a slowly starting checker box
+  // from dragging the camera (docs/validation/crossing.json) and TUM fr1/rpy gains, but Bonn crowd
+  // loses and spawns a model from its static office (docs/experiments.md, "A redescending (Cauchy)
+  // photometric loss").
+  double photometric_cauchy_k = 0;
+  // The scale factor of the photometric term's robust weight (Cauchy's or Huber's).
+  double photometric_robust_k() const { return photometric_cauchy_k > 0 ? photometric_cauchy_k : photometric_huber_k; }
   // Robust ICP term, by the same rule: point-to-plane residuals beyond icp_huber_k times the
   // previous iteration's RMS ICP residual get Huber weight delta / |r| (0 = never robust). Points
   // of something that moves a little (a person close to the camera), inside the correspondence

@@ -411,6 +411,9 @@ struct TestTexelParams {
 // intensity is not masked, so a model whose outline lags its object sees the background there:
 // the outline constrains motions the object's own pixels do not (TrackerParams).
 #define ICP_RGB_FLAG_OUTLINE 4u
+// Photometric residuals get Cauchy's weight 1 / (1 + (r / rgb_huber_delta)^2) instead of Huber's
+// (TrackerParams::photometric_cauchy_k). Read only by icp_rgb_reduce_reweighted.comp.
+#define ICP_RGB_FLAG_CAUCHY 8u
 #define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup (16 vec4)
 #define ICP_RGB_MAX_SUBGROUPS 64          // shared memory holds this many subgroups: subgroup size >= 4
 struct IcpRgbReduceParams {
@@ -425,7 +428,7 @@ struct IcpRgbReduceParams {
   // part (a model's own pixels; the rest of its masked live map is invalid anyway).
   uint rect_x0, rect_y0, rect_width, rect_height;
   // Photometric: residuals beyond this (intensity / 255) get Huber weight delta / |r| (the sums
-  // then hold w J^T J, w J^T r, w r^2); 0 = none.
+  // then hold w J^T J, w J^T r, w r^2); with ICP_RGB_FLAG_CAUCHY it is Cauchy's scale; 0 = none.
   float rgb_huber_delta;
   // Photometric: the live intensity (and its gradient) is multiplied by this before it is compared
   // with the reference's (exposure compensation; 1 = none).

@@ -1,7 +1,8 @@
-// The body of icp_rgb_reduce.comp and icp_rgb_reduce_gradient_weighted.comp (see the former);
-// with ICP_RGB_GRADIENT_WEIGHTS defined, photometric residuals carry gradient-dependent weights
-// (IcpRgbReduceParams::gradient_weight_c). Without it the code is exactly the unweighted kernel's,
-// so results stay bit-identical where the weights are off.
+// The body of icp_rgb_reduce.comp and icp_rgb_reduce_reweighted.comp (see the former); with
+// ICP_RGB_REWEIGHTED defined, photometric residuals carry gradient-dependent weights
+// (IcpRgbReduceParams::gradient_weight_c) and, with ICP_RGB_FLAG_CAUCHY, Cauchy's robust weight
+// instead of Huber's. Without it the code is exactly the plain kernel's, so results stay
+// bit-identical where these options are off.
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "shared/host_device.h"
@@ -51,11 +52,22 @@ vec3 intensity_jacobian(vec2 g, vec3 q) {
 float huber_sqrt_weight(float r, float delta) {
   return delta > 0.0 && abs(r) > delta ? sqrt(delta / abs(r)) : 1.0;
 }
-#ifdef ICP_RGB_GRADIENT_WEIGHTS
-// sqrt of the gradient weight c^2 / (c^2 + |g|^2) (IcpRgbReduceParams::gradient_weight_c).
+#ifdef ICP_RGB_REWEIGHTED
+// sqrt of the gradient weight c^2 / (c^2 + |g|^2) (IcpRgbReduceParams::gradient_weight_c; 1 for c 0).
 float gradient_sqrt_weight(vec2 g) {
   const float c2 = p.gradient_weight_c * p.gradient_weight_c;
-  return sqrt(c2 / (c2 + dot(g, g)));
+  return c2 > 0.0 ? sqrt(c2 / (c2 + dot(g, g))) : 1.0;
+}
+// Cauchy's weight 1 / (1 + (r / delta)^2), applied as its sqrt like Huber's.
+float cauchy_sqrt_weight(float r, float delta) {
+  return delta > 0.0 ? inversesqrt(1.0 + (r / delta) * (r / delta)) : 1.0;
+}
+// A photometric residual's sqrt weight: the robust weight (ICP_RGB_FLAG_CAUCHY: Cauchy's, else
+// Huber's) times the gradient weight.
+float photometric_sqrt_weight(float r, vec2 g) {
+  const float robust = (p.flags & ICP_RGB_FLAG_CAUCHY) != 0u ? cauchy_sqrt_weight(r, p.rgb_huber_delta)
+                                                             : huber_sqrt_weight(r, p.rgb_huber_delta);
+  return robust * gradient_sqrt_weight(g);
 }
 #endif
 // Weights of the pixels (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1) at fraction a.
@@ -132,9 +144,10 @@ void main() {
           if ((p.flags & ICP_RGB_FLAG_ESM) != 0u)
             g = 0.5 * (g + p.live_intensity_gain * texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
-          float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
-#ifdef ICP_RGB_GRADIENT_WEIGHTS
-          sw *= gradient_sqrt_weight(g);
+#ifdef ICP_RGB_REWEIGHTED
+          const float sw = photometric_sqrt_weight(r, g);
+#else
+          const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
 #endif
           accumulate(rgb, sw * dI_dq, sw * cross(q, dI_dq), sw * r);
         }
@@ -178,9 +191,10 @@ void main() {
       const vec2 g = p.live_intensity_gain * (wts.x * texel_vec2(live_gradient, i00) + wts.y * texel_vec2(live_gradient, i10) +
                       wts.z * texel_vec2(live_gradient, i01) + wts.w * texel_vec2(live_gradient, i11)) * (1.0 / 255.0);
       const vec3 G = R * intensity_jacobian(g, x_live);
-      float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
-#ifdef ICP_RGB_GRADIENT_WEIGHTS
-      sw *= gradient_sqrt_weight(g);
+#ifdef ICP_RGB_REWEIGHTED
+      const float sw = photometric_sqrt_weight(r, g);
+#else
+      const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
 #endif
       accumulate(rgb, -sw * G, -sw * cross(v_ref.xyz, G), sw * r);
     }

@@ -314,6 +314,28 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // Cauchy's photometric weight instead of Huber's (TrackerParams::photometric_cauchy_k), on the
+    // direct and the outline term, with and without gradient weights: GPU and CPU alike; the same
+    // residuals, the large ones weighed down more than Huber's weight at the same scale does.
+    for (const double c : {0.0, 0.05}) {
+      slam::TrackerParams cauchy = params;
+      cauchy.photometric_cauchy_k = 2.385;
+      cauchy.photometric_gradient_c = c;
+      cauchy.outline_photometric = true;
+      slam::TrackerParams huber = cauchy;
+      huber.photometric_cauchy_k = 0;
+      const slam::IterationScales scales{0, 0.01, 1};
+      const auto [g, cc] = gpu_and_cpu(cauchy, std::nullopt, scales);
+      const auto [g_huber, c_huber] = gpu_and_cpu(huber, std::nullopt, scales);
+      const std::string label = what + " cauchy rgb, gradient c " + std::to_string(c);
+      expect_sums_near(g.rgb, cc.rgb, 2e-3, label);
+      EXPECT_EQ(cc.icp, cpu.icp) << label;
+      EXPECT_EQ(cc.rgb[28], c_huber.rgb[28]) << label;
+      if (s.w >= 160) {
+        EXPECT_LT(cc.rgb[27], 0.98 * c_huber.rgb[27]) << label << ": no residual was weighed down more";
+      }
+    }
+
     // An exposure gain on the live intensity (IterationScales::live_gain), with the outline term:
     // GPU and CPU alike; the intensity sums (before the gain) match too.
     {
