@@ -568,6 +568,20 @@ TEST(RunCommand, ObjectPhotometricWeightIsReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
+// The photometric reweighting options (TrackerParams::photometric_gradient_c, photometric_cauchy_k):
+// read, checked, and a run with both on (the reweighted reduction kernel) completes.
+TEST(RunCommand, PhotometricReweightingConfigsAreReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  for (const std::string key : {"photometric_gradient_c", "photometric_cauchy_k"}) {
+    const Result r = run_with_config(dir, "config.json", R"({"tracker": {")" + key + R"(": -1}})");
+    EXPECT_NE(r.exit_code, 0) << key;
+    EXPECT_THAT(r.output, HasSubstr(key + " must be >= 0")) << r.output;
+  }
+  const Result ok = run_with_config(dir, "ok.json", R"({"tracker": {"photometric_gradient_c": 0.05, "photometric_cauchy_k": 2.385}})",
+                                    "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 TEST(RunCommand, MergeWindowStepIsReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   const Result bad = run_with_config(dir, "config.json", R"({"fusion": {"merge_window_step_cells": 0}})");
