@@ -86,7 +86,7 @@ void Tracker::set_params(const TrackerParams& requested) {
   if (params.reduction_workgroups == 0)
     params.reduction_workgroups = ctx_.is_software() ? TrackerParams::kCpuReductionWorkgroups
                                                      : TrackerParams::kGpuReductionWorkgroups;
-  if ((params.photometric_gradient_c > 0 || params.photometric_cauchy_k > 0) && !reduce_reweighted_)
+  if (params.photometric_reweighted() && !reduce_reweighted_)
     reduce_reweighted_.emplace(ctx_, "icp_rgb_reduce_reweighted", shaders::icp_rgb_reduce_reweighted_comp(), 10,
                                sizeof(L::IcpRgbReduceParams), reduction_texel_bindings());
   const size_t bytes = static_cast<size_t>(params.reduction_workgroups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
@@ -136,7 +136,7 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   if (params_.outline_photometric && !live.depth_m) throw Error("Tracker: the outline term needs the live level's depth");
   const gpu::BufferPtr& live_depth = live.depth_m ? live.depth_m : live.intensity;
   if (cmd.profiled()) cmd.set_profile_label(std::to_string(live.width) + "x" + std::to_string(live.height));
-  cmd.dispatch(reweighted() ? *reduce_reweighted_ : reduce_,
+  cmd.dispatch(params_.photometric_reweighted() ? *reduce_reweighted_ : reduce_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
                 reference.gradient, partials_, live.gradient, live_depth},
                p, groups);

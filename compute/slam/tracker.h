@@ -73,7 +73,6 @@ class Tracker {
   // The reduction with reweighted photometric residuals (TrackerParams::photometric_gradient_c,
   // photometric_cauchy_k), created when first needed.
   std::optional<gpu::ComputePipeline> reduce_reweighted_;
-  bool reweighted() const { return params_.photometric_gradient_c > 0 || params_.photometric_cauchy_k > 0; }
   gpu::BufferPtr partials_;
   // Where the host reads the partial sums when partials_ is not mapped (a discrete GPU).
   gpu::BufferPtr partials_readback_;

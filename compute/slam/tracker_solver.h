@@ -82,6 +82,8 @@ struct TrackerParams {
   double photometric_cauchy_k = 0;
   // The scale factor of the photometric term's robust weight (Cauchy's or Huber's).
   double photometric_robust_k() const { return photometric_cauchy_k > 0 ? photometric_cauchy_k : photometric_huber_k; }
+  // Whether photometric residuals need the reweighted reduction kernel (Cauchy or gradient weights).
+  bool photometric_reweighted() const { return photometric_gradient_c > 0 || photometric_cauchy_k > 0; }
   // Robust ICP term, by the same rule: point-to-plane residuals beyond icp_huber_k times the
   // previous iteration's RMS ICP residual get Huber weight delta / |r| (0 = never robust). Points
   // of something that moves a little (a person close to the camera), inside the correspondence

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <functional>
 #include <malloc.h>  // mallopt (glibc)
 #include <map>
 #include <opencv2/core.hpp>
@@ -426,14 +425,14 @@ INSTANTIATE_TEST_SUITE_P(Cans, SmallObjectScene,
 // that holds no sideways motion; the default camera follows it by up to 17 mm until it is found at
 // 28, and box a, found at 24 meanwhile, keeps that offset: 7 mm of drift). Two photometric
 // options, both off by default (they cost Bonn crowd accuracy, docs/experiments.md), keep the
-// checker's edges from pulling the camera along. Checked: the camera within `max_camera_m` (3.0
-// mm by default), both boxes found, box b within issue 23's 6 frames of its start, both drifting
-// within its 5 mm.
-using SceneRunner = std::function<SceneRun(const synthetic::SyntheticSequence&, const slam::CoFusionParams&)>;
-void expect_crossing_camera_not_dragged(const slam::CoFusionParams& params, double max_camera_m, const SceneRunner& run) {
-  const synthetic::SyntheticSequence seq(
+// checker's edges from pulling the camera along. Checked on a run `r` of crossing_scene(): the
+// camera within `max_camera_m` (3.0 mm by default), both boxes found, box b within issue 23's 6
+// frames of its start, both drifting within its 5 mm.
+synthetic::SyntheticSequence crossing_scene() {
+  return synthetic::SyntheticSequence(
       synthetic::load_scene((source_dir() / "docs" / "validation" / "crossing.json").string()), 0);
-  const SceneRun r = run(seq, params);
+}
+void expect_crossing_camera_not_dragged(const synthetic::SyntheticSequence& seq, const SceneRun& r, double max_camera_m) {
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, max_camera_m);
   const int box_b_starts = 20;
@@ -459,7 +458,8 @@ void expect_crossing_camera_not_dragged(const slam::CoFusionParams& params, doub
 TEST_F(CoFusionScenes, GradientWeightsKeepTheCameraOffASlowlyStartingTexturedBoxSlow) {
   slam::CoFusionParams params;
   params.slam.tracker.photometric_gradient_c = 0.05;
-  expect_crossing_camera_not_dragged(params, 0.002, [this](const auto& seq, const auto& p) { return run(seq, p); });
+  const synthetic::SyntheticSequence seq = crossing_scene();
+  expect_crossing_camera_not_dragged(seq, run(seq, params), 0.002);
 }
 
 // Cauchy's photometric loss (TrackerParams::photometric_cauchy_k): the box's large residuals pull
@@ -467,7 +467,8 @@ TEST_F(CoFusionScenes, GradientWeightsKeepTheCameraOffASlowlyStartingTexturedBox
 TEST_F(CoFusionScenes, CauchyPhotometricLossKeepsTheCameraOffASlowlyStartingTexturedBoxSlow) {
   slam::CoFusionParams params;
   params.slam.tracker.photometric_cauchy_k = 2.385;
-  expect_crossing_camera_not_dragged(params, 0.0026, [this](const auto& seq, const auto& p) { return run(seq, p); });
+  const synthetic::SyntheticSequence seq = crossing_scene();
+  expect_crossing_camera_not_dragged(seq, run(seq, params), 0.0026);
 }
 
 // Objects carried into the view fast (table_placement's ball: 3.4 cm per frame) move out of the
