@@ -370,8 +370,8 @@ void CoFusion::settle_models(const std::vector<Model*>& models, const Eigen::Iso
     for (Model* m : testing) {
       const TrackerParams& tp = m->tracker.params();
       const TrackingResult& t = m->tracking;
-      const IterationScales scales{tp.icp_huber_k * t.icp_rms_m, tp.photometric_robust_k() * t.rgb_rms,
-                                   t.live_intensity_gain};  // as tracking's last iteration
+      // The scales tracking would use next, at its last iteration's exposure gain.
+      const IterationScales scales = next_iteration_scales(tp, t, t.live_intensity_gain);
       cmd.set_profile_group(m->stream.profile_group());
       groups.push_back(m->tracker.record_reduction(cmd, m->masked[0], m->prediction.levels[0], camera_motion,
                                                    m->track_rect, scales));

@@ -79,6 +79,10 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (p.reduction_workgroups < 0) bad("reduction_workgroups must be >= 0 (0: by device)");
 }
 
+IterationScales next_iteration_scales(const TrackerParams& params, const TrackingResult& result, double live_gain) {
+  return {params.icp_huber_k * result.icp_rms_m, params.photometric_robust_k() * result.rgb_rms, live_gain};
+}
+
 namespace {
 // The iteration's figures from its sums (correspondences, inlier ratio, RMS residuals) and the
 // robust scales and exposure gain of the next iteration.
@@ -94,8 +98,7 @@ void take_statistics(const LinearSystemSums& s, const TrackerParams& params, Tra
   result.icp_rms_m = s.icp[28] > 0 ? std::sqrt(s.icp[27] / s.icp[28]) : 0.0;
   result.rgb_rms = s.rgb[28] > 0 ? std::sqrt(s.rgb[27] / s.rgb[28]) : 0.0;
   result.live_intensity_gain = scales.live_gain;
-  scales = {params.icp_huber_k * result.icp_rms_m, params.photometric_robust_k() * result.rgb_rms,
-            exposure_gain(s, params, scales.live_gain)};
+  scales = next_iteration_scales(params, result, exposure_gain(s, params, scales.live_gain));
 }
 
 // The normal equations of the ICP term plus the weighted photometric term.

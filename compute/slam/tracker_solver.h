@@ -201,6 +201,10 @@ struct LinearSystemSums {
   double live_intensity_sum = 0;
 };
 
+// The robust scales of the iteration after one whose residual statistics `result` holds (Huber's
+// or Cauchy's scale is its factor times that iteration's RMS), with the live frame at `live_gain`.
+IterationScales next_iteration_scales(const TrackerParams& params, const TrackingResult& result, double live_gain);
+
 // Unpacks one term into H = J^T J, b = J^T r.
 void unpack_term(const std::array<double, LinearSystemSums::kTermValues>& term, Matrix6d& H, Vector6d& b);
 
