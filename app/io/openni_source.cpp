@@ -2,9 +2,11 @@
 
 #include <OpenNI.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <thread>
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
@@ -16,6 +18,11 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+
+// How long a recording's file player is given to finish handing over a frame before the device is
+// closed (see OpenNiSource::Impl::~Impl). The hand-over itself takes microseconds; the margin is
+// for a player thread that the scheduler has set aside on a loaded machine.
+constexpr auto kPlayerSettleTime = std::chrono::milliseconds(50);
 
 // OpenNI2 keeps one process-wide context: initialize() loads every driver from disk. Sources
 // share it through this function-local static, initialized on first use (thread-safe). It is
@@ -120,15 +127,25 @@ struct OpenNiSource::Impl {
   IntrinsicsChoice intrinsics;
   int next_index = 0;
 
-  // Order matters for recordings. The file driver's player thread walks its stream list without
-  // a lock and spins on it once the file has ended, so destroying a stream while the device is
-  // open races with it (a crash in a few percent of runs). Closing the device first joins the
-  // player thread; the streams destroyed afterwards no longer call into the driver (OpenNI2
-  // skips the driver when the device handle is gone), at the cost of the driver's two small
-  // stream objects per recording never being freed.
+  bool started = false;  // a stream was started, so the file player may be handing over a frame
+
+  // Order matters for recordings.
+  // - The file driver's player thread walks its stream list without a lock and spins on it once
+  //   the file has ended, so destroying a stream while the device is open races with it. Closing
+  //   the device first joins the player thread; the streams destroyed afterwards no longer call
+  //   into the driver (OpenNI2 skips the driver when the device handle is gone), at the cost of
+  //   the driver's two small stream objects per recording never being freed.
+  // - Device::close() deletes OpenNI2's per-sensor objects before it joins the player thread,
+  //   and the player hands a frame over by waking the reader first and releasing the frame
+  //   through that sensor object afterwards. A close between the two frees the object under the
+  //   player (a crash in about 1 close in 200 on a loaded machine). Stopped streams make the
+  //   player drop every later frame before it reaches OpenNI2; the pause lets a hand-over already
+  //   under way finish. The player offers no handshake that is safe here: a seek, its one
+  //   synchronous call, crashes it near the end of the file.
   ~Impl() {
     depth.stop();
     colour.stop();
+    if (is_file && started) std::this_thread::sleep_for(kPlayerSettleTime);
     device.close();
     depth.destroy();
     colour.destroy();
@@ -169,6 +186,7 @@ void OpenNiSource::Impl::open(const char* uri, const OpenNiSourceOptions& option
   set_intrinsics(options.intrinsics, w, h);
   require_plausible(intrinsics.intrinsics, name + " (" + intrinsics.origin + ")");
   if (depth.start() != openni::STATUS_OK) throw Error(name + ": cannot start the depth stream: " + openni_error());
+  started = true;
   if (has_colour && colour.start() != openni::STATUS_OK)
     throw Error(name + ": cannot start the colour stream: " + openni_error());
 }
