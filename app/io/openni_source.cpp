@@ -127,7 +127,7 @@ struct OpenNiSource::Impl {
   IntrinsicsChoice intrinsics;
   int next_index = 0;
 
-  bool started = false;  // a stream was started, so the file player may be handing over a frame
+  bool started = false;  // a stream was started, so the driver may be handing over a frame
 
   // Order matters for recordings.
   // - The file driver's player thread walks its stream list without a lock and spins on it once
@@ -141,11 +141,12 @@ struct OpenNiSource::Impl {
   //   player (a crash in about 1 close in 200 on a loaded machine). Stopped streams make the
   //   player drop every later frame before it reaches OpenNI2; the pause lets a hand-over already
   //   under way finish. The player offers no handshake that is safe here: a seek, its one
-  //   synchronous call, crashes it near the end of the file.
+  //   synchronous call, crashes it near the end of the file. Live devices get the same pause:
+  //   their drivers also hand frames over from their own threads.
   ~Impl() {
     depth.stop();
     colour.stop();
-    if (is_file && started) std::this_thread::sleep_for(kPlayerSettleTime);
+    if (started) std::this_thread::sleep_for(kPlayerSettleTime);
     device.close();
     depth.destroy();
     colour.destroy();
