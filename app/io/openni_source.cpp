@@ -19,10 +19,11 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// How long a recording's file player is given to finish handing over a frame before the device is
-// closed (see OpenNiSource::Impl::~Impl). The hand-over itself takes microseconds; the margin is
-// for a player thread that the scheduler has set aside on a loaded machine.
-constexpr auto kPlayerSettleTime = std::chrono::milliseconds(50);
+// How long the driver (a recording's file player, a camera's reader) is given to finish handing
+// over a frame before the device is closed (see OpenNiSource::Impl::~Impl). The hand-over itself
+// takes microseconds; the margin is for a driver thread that the scheduler has set aside on a
+// loaded machine.
+constexpr auto kDriverSettleTime = std::chrono::milliseconds(50);
 
 // OpenNI2 keeps one process-wide context: initialize() loads every driver from disk. Sources
 // share it through this function-local static, initialized on first use (thread-safe). It is
@@ -146,7 +147,7 @@ struct OpenNiSource::Impl {
   ~Impl() {
     depth.stop();
     colour.stop();
-    if (started) std::this_thread::sleep_for(kPlayerSettleTime);
+    if (started) std::this_thread::sleep_for(kDriverSettleTime);
     device.close();
     depth.destroy();
     colour.destroy();
