@@ -1,5 +1,6 @@
 #include "commands/config.h"
 
+#include <cmath>
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -372,6 +373,13 @@ PipelineConfig load_config(const std::filesystem::path& path) {
       throw Error(q.where() + ": step_px must be >= 1, tolerances and photometric weights >= 0, min_fit_ratio, "
                               "replaced_motion_scale, keyframe_pose_gain and keyframe_pull_gain in [0, 1], "
                               "agreeing_frames and keyframe_pull_min_inliers >= 0");
+  });
+  s.section("rolling_shutter", file + ": rolling_shutter", [&](Section& q) {
+    double readout_s = config.rolling_shutter.colour_readout_s.value_or(0.0);
+    q.field("colour_readout_s", readout_s).field("nominal_frame_interval_s", config.rolling_shutter.nominal_frame_interval_s);
+    if (q.raw("colour_readout_s")) config.rolling_shutter.colour_readout_s = readout_s;
+    if (!(std::abs(readout_s) <= 1.0) || !(config.rolling_shutter.nominal_frame_interval_s > 0))
+      throw Error(q.where() + ": colour_readout_s must be within -1..1 s and nominal_frame_interval_s > 0");
   });
   s.reject_unknown();
   return config;

@@ -12,7 +12,8 @@ namespace cofusion::commands {
 // Groups: "preprocess" (kernels::PreprocessParams), "tracker" (slam::TrackerParams), "fusion"
 // (slam::FusionParams), "slam" (slam::SlamParams' own members), "segmentation"
 // (segmentation::MotionSegmentationParams, SLIC under "segmentation": {"slic": {...}}), "costs"
-// (slam::MotionCostParams), "lifecycle" (slam::LifecycleParams), "motion_segmentation" (bool).
+// (slam::MotionCostParams), "lifecycle" (slam::LifecycleParams), "rolling_shutter"
+// (slam::RollingShutterParams), "motion_segmentation" (bool).
 struct PipelineConfig {
   slam::SlamParams slam;
   segmentation::MotionSegmentationParams segmentation;
@@ -20,6 +21,7 @@ struct PipelineConfig {
   slam::LifecycleParams lifecycle;
   slam::RestParams rest;
   slam::CameraCheckParams camera_check;
+  slam::RollingShutterParams rolling_shutter;
   slam::SemanticParams semantic;  // thresholds only: mode and classes come from the command line
   bool motion_segmentation = true;
 
@@ -33,6 +35,7 @@ struct PipelineConfig {
     p.lifecycle = lifecycle;
     p.rest = rest;
     p.camera_check = camera_check;
+    p.rolling_shutter = rolling_shutter;
     p.semantic = semantic;
     p.motion_segmentation = motion_segmentation;
     return p;

@@ -366,6 +366,7 @@ class RunSession {
         frame->timestamp_s - timestamps_.back() > o_.frame_gate.relocalise_after_gap_s)
       slam_.note_gap();  // a long gap: relocalise across it
     skipped_before_ = gate_.skipped().size();
+    slam_.note_frame_time(frame->timestamp_s, frame->colour_readout_s);
     const cv::Mat depth = frame->depth_m.isContinuous() ? frame->depth_m : frame->depth_m.clone();
     const cv::Mat rgb = frame->rgb.isContinuous() ? frame->rgb : frame->rgb.clone();
     slam::CoFusionFrame r = slam_.process(depth.ptr<float>(), rgb.data, masks_.for_frame(*frame, rgb, depth));

@@ -28,6 +28,9 @@ struct Frame {
   std::shared_ptr<const InstanceClasses> mask_classes;
   Intrinsics intrinsics;
   std::optional<Pose> T_world_camera_gt;  // ground truth when the source has it
+  // The colour camera's rolling-shutter readout, seconds (slam::RollingShutterParams), where the
+  // source knows its camera; 0 = a global shutter or unknown.
+  double colour_readout_s = 0.0;
 };
 
 // One frame a source could not read: an image that is missing, cannot be decoded or has the wrong

@@ -76,6 +76,11 @@ std::optional<double> tum_depth_correction(std::string_view preset) {
   return std::nullopt;
 }
 
+double tum_colour_readout_s(std::string_view preset) {
+  const std::string n = lower(preset);
+  return n == "fr1" || n == "freiburg1" ? 0.02 : 0.0;
+}
+
 void require_plausible_depth_correction(double depth_correction, const std::string& where) {
   if (!(depth_correction >= 0.5 && depth_correction <= 2.0))
     throw Error(where + ": --depth-correction must be between 0.5 and 2 (recorded depth / it = metric depth), got " +

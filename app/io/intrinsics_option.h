@@ -34,6 +34,12 @@ std::optional<Intrinsics> intrinsics_preset(std::string_view name);
 // nullopt for names that are not TUM cameras (primesense included).
 std::optional<double> tum_depth_correction(std::string_view preset);
 
+// The colour camera's rolling-shutter readout (slam::RollingShutterParams::colour_readout_s) of
+// a TUM camera, rows read from the top down: fr1 0.02 s (two thirds of a 30 Hz frame; measured on
+// fr1/rpy's fast turns, docs/experiments.md). 0 for fr2 (on fr2/desk it made the camera worse)
+// and fr3 (not measured), and for other names.
+double tum_colour_readout_s(std::string_view preset);
+
 // Throws cofusion::Error "<where>: --depth-correction must be between 0.5 and 2 ..." otherwise.
 void require_plausible_depth_correction(double depth_correction, const std::string& where);
 // " depth / 1.031 (<origin>)", as the sources' describe() show a correction.

@@ -186,6 +186,7 @@ TumSource::TumSource(fs::path folder, TumSourceOptions options) : folder_(std::m
     depth_correction_ = tum_depth_correction(intrinsics_.tum_preset).value_or(1.0);
     depth_correction_origin_ = intrinsics_.tum_preset + " depth correction";
   }
+  if (!intrinsics_.tum_preset.empty()) colour_readout_s_ = tum_colour_readout_s(intrinsics_.tum_preset);
 }
 
 std::optional<Frame> TumSource::next() {
@@ -201,6 +202,7 @@ Frame TumSource::read_frame(std::size_t i) const {
   frame.index = static_cast<int>(i);
   frame.timestamp_s = a.rgb.timestamp_s;
   frame.intrinsics = k;
+  frame.colour_readout_s = colour_readout_s_;
 
   const fs::path rgb_path = folder_ / a.rgb.file;
   frame.rgb = read_rgb_image(rgb_path);
@@ -223,6 +225,9 @@ std::string TumSource::describe() const {
   std::string s = "tum:" + folder_.string() + " (" + std::to_string(frames_.size()) + " frames, " + pairing_ + ", " +
                   intrinsics_.origin + ": " + intrinsics_.intrinsics.to_string();
   if (depth_correction_ != 1.0) s += ", " + depth_correction_label(depth_correction_, depth_correction_origin_);
+  if (colour_readout_s_ != 0.0)
+    s += ", colour rolling shutter " + std::to_string(int(std::lround(colour_readout_s_ * 1000))) + " ms (" +
+         intrinsics_.tum_preset + ")";
   if (!groundtruth_.empty()) s += ", ground truth";
   if (has_masks_) s += mask_classes_ ? ", masks with classes" : ", masks";
   return s + ")";

@@ -59,6 +59,8 @@ class TumSource : public FrameSource {
   Intrinsics intrinsics() const override { return intrinsics_.intrinsics; }
   // The divisor applied to every depth reading (1 = none); see TumSourceOptions::depth_correction.
   double depth_correction() const { return depth_correction_; }
+  // The colour camera's rolling-shutter readout every frame carries (Frame::colour_readout_s).
+  double colour_readout_s() const { return colour_readout_s_; }
   std::optional<int> size() const override { return static_cast<int>(frames_.size()); }
   std::string describe() const override;
 
@@ -72,6 +74,7 @@ class TumSource : public FrameSource {
   IntrinsicsChoice intrinsics_;
   double depth_correction_ = 1.0;
   std::string depth_correction_origin_;
+  double colour_readout_s_ = 0.0;  // tum_colour_readout_s of the preset, 0 without one
   std::vector<TumAssociation> frames_;
   Trajectory groundtruth_;  // sorted by time; empty without groundtruth.txt
   bool has_masks_ = false;

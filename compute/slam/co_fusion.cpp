@@ -517,10 +517,11 @@ void CoFusion::report_cull(Model& m, CoFusionFrame& out) {
 }
 
 // ---------------------------------------------------------------------------------------------
-CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const SemanticFrame* semantic) {
+CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, const SemanticFrame* semantic) {
   CoFusionFrame out;
   out.frame = frame_;
   const int width = intrinsics_.width, height = intrinsics_.height;
+  const uint8_t* rgb = without_rolling_shutter(input_rgb);
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
   frame_rgb_ = rgb;
   frame_excluded_ = &excluded;
@@ -620,6 +621,23 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* rgb, const 
   finish_frame(camera, out);
   stage("finish");
   return out;
+}
+
+// The frame's colour as its middle row's pose would have seen it (RollingShutterParams), for a
+// camera turning as it did over the last frame; the input itself without a rolling shutter, on
+// the first frame and while the camera is lost.
+const uint8_t* CoFusion::without_rolling_shutter(const uint8_t* rgb) {
+  while (frame_times_s_.size() > 3) frame_times_s_.pop_front();
+  const RollingShutterParams& p = params_.rolling_shutter;
+  const double readout_s = p.colour_readout_s.value_or(input_colour_readout_s_);
+  if (readout_s == 0.0 || frame_ == 0 || lost_ || models_.empty()) return rgb;
+  // The last motion spans the two frames before this one.
+  const size_t n = frame_times_s_.size();
+  const double interval_s = n == 3 && frame_times_s_[1] > frame_times_s_[0] ? frame_times_s_[1] - frame_times_s_[0]
+                                                                             : p.nominal_frame_interval_s;
+  unwarped_rgb_.resize(size_t(intrinsics_.width) * intrinsics_.height * 3);
+  unwarp_colour(rgb, intrinsics_, models_.front()->last_motion, interval_s, readout_s, unwarped_rgb_.data());
+  return unwarped_rgb_.data();
 }
 
 // Predicts and tracks every active model, or, while the camera is lost, tries to relocalise it

@@ -34,6 +34,7 @@
 #include "slam/keyframe_database.h"
 #include "slam/motion_kernels.h"
 #include "slam/region_rigidity.h"
+#include "slam/rolling_shutter.h"
 #include "slam/semantic_masks.h"
 
 namespace cofusion::slam {
@@ -350,6 +351,8 @@ struct CoFusionParams {
   RestParams rest;
   RelocalisationParams relocalisation;
   CameraCheckParams camera_check;
+  // The colour camera's rolling shutter (0 = global shutter).
+  RollingShutterParams rolling_shutter;
   // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
   bool motion_segmentation = true;
   // Instance masks (process()'s `semantic`): excluded classes, segmentation mode.
@@ -456,6 +459,13 @@ class CoFusion {
   // relocalised (from the last pose first, then the keyframes' PnP poses), as after a loss.
   void note_gap() {
     if (frame_ > 0) lost_ = true;
+  }
+  // The next frame's timestamp, seconds (an input without them: frames are
+  // RollingShutterParams::nominal_frame_interval_s apart), and its colour camera's readout time
+  // as the input gives it (RollingShutterParams::colour_readout_s, which overrides it).
+  void note_frame_time(double t_s, double input_colour_readout_s) {
+    frame_times_s_.push_back(t_s);
+    input_colour_readout_s_ = input_colour_readout_s;
   }
 
   // Active and inactive models (background first, then by id).
@@ -570,6 +580,7 @@ class CoFusion {
   void update_presence(const std::vector<int>& slot_pixels, CoFusionFrame& out);
   bool try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera);
   bool relocalise(Model& bg, const FrameEncoding& encoding, const FrameFeatures& features);
+  const uint8_t* without_rolling_shutter(const uint8_t* rgb);
   void hold_still(const std::vector<Model*>& active, const std::string& why);
   std::vector<Model*> live_models() const;  // the active models, background first
   static uint32_t resting_slots(const std::vector<Model*>& models);  // bit s: a resting model's slot s
@@ -613,6 +624,10 @@ class CoFusion {
   std::vector<float> previous_depth_m_;
   // This frame's colour and excluded pixels (process() only): for the keyframes' pose of the camera.
   const uint8_t* frame_rgb_ = nullptr;
+  // This frame's colour resampled to its middle row's pose (RollingShutterParams).
+  std::vector<uint8_t> unwarped_rgb_;
+  std::deque<double> frame_times_s_;  // note_frame_time's, the last three
+  double input_colour_readout_s_ = 0.0;
   const std::vector<uint8_t>* frame_excluded_ = nullptr;
   // This frame's keyframes' pose where a CPU job computes it while the GPU tracks (process() only;
   // empty: computed where it is needed).

@@ -43,6 +43,14 @@ TEST(IntrinsicsPreset, TumDepthCorrections) {
   EXPECT_FALSE(tum_depth_correction("fr4"));
 }
 
+TEST(IntrinsicsPreset, TumColourRollingShutter) {
+  EXPECT_EQ(tum_colour_readout_s("fr1"), 0.02);
+  EXPECT_EQ(tum_colour_readout_s("Freiburg1"), 0.02);
+  EXPECT_EQ(tum_colour_readout_s("fr2"), 0.0);
+  EXPECT_EQ(tum_colour_readout_s("fr3"), 0.0);
+  EXPECT_EQ(tum_colour_readout_s("primesense"), 0.0);
+}
+
 TEST(IntrinsicsOption, FourNumbersLeaveSizeToTheImages) {
   const auto c = parse_intrinsics_option("500, 501,300.5,200");
   EXPECT_FALSE(c.size_known);

@@ -304,6 +304,10 @@ TEST(TumSource, DepthCorrectionOfTumCameras) {
     TumSource source(fx.dir);  // calibration.txt: not a TUM camera
     EXPECT_EQ(source.depth_correction(), 1.0);
     EXPECT_THAT(source.describe(), ::testing::Not(HasSubstr("depth /")));
+    EXPECT_THAT(source.describe(), ::testing::Not(HasSubstr("rolling shutter")));
+    const auto f = source.next();
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->colour_readout_s, 0.0);
   }
   {
     TumSourceOptions o;
@@ -330,6 +334,9 @@ TEST(TumSource, DepthCorrectionOfTumCameras) {
     TumSource source(fx.dir, o);
     EXPECT_EQ(source.depth_correction(), 1.035);
     EXPECT_THAT(source.describe(), HasSubstr("depth / 1.035 (fr1 depth correction)"));
+    // Its colour camera's rolling shutter travels with every frame (slam::RollingShutterParams).
+    EXPECT_THAT(source.describe(), HasSubstr("colour rolling shutter 20 ms (fr1)"));
+    EXPECT_EQ(source.colour_readout_s(), 0.02);
   }
   // A folder named after a TUM camera, without calibration.txt: the guessed preset brings its own.
   const fs::path fr2_dir = fx.dir.parent_path() / (fx.dir.filename().string() + "_fr2_desk");
@@ -339,6 +346,8 @@ TEST(TumSource, DepthCorrectionOfTumCameras) {
     TumSource source(fr2_dir);
     EXPECT_EQ(source.depth_correction(), 1.031);
     EXPECT_THAT(source.describe(), HasSubstr("depth / 1.031 (fr2 depth correction)"));
+    EXPECT_THAT(source.describe(), ::testing::Not(HasSubstr("rolling shutter")));  // fr1's only
+    EXPECT_EQ(source.colour_readout_s(), 0.0);
     TumSourceOptions o;
     o.depth_correction = 1.0;  // switched off
     TumSource raw(fr2_dir, o);
