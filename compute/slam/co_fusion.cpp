@@ -520,8 +520,14 @@ void CoFusion::report_cull(Model& m, CoFusionFrame& out) {
 CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, const SemanticFrame* semantic) {
   CoFusionFrame out;
   out.frame = frame_;
+  auto lap = Clock::now();
+  const auto stage = [&](const char* name) {
+    const auto now = Clock::now();
+    out.stage_ms.emplace_back(name, ms_between(lap, now));
+    lap = now;
+  };
   const int width = intrinsics_.width, height = intrinsics_.height;
-  const uint8_t* rgb = without_rolling_shutter(input_rgb);
+  const uint8_t* rgb = without_rolling_shutter(input_rgb);  // timed with the upload
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
   frame_rgb_ = rgb;
   frame_excluded_ = &excluded;
@@ -539,12 +545,6 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
       return keyframe_pose;
     };
   }
-  auto lap = Clock::now();
-  const auto stage = [&](const char* name) {
-    const auto now = Clock::now();
-    out.stage_ms.emplace_back(name, ms_between(lap, now));
-    lap = now;
-  };
   std::vector<Model*> active = live_models();
   for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {}, m->velocity_motion.reset();
   set_work_rects(active);
