@@ -520,14 +520,10 @@ void CoFusion::report_cull(Model& m, CoFusionFrame& out) {
 CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, const SemanticFrame* semantic) {
   CoFusionFrame out;
   out.frame = frame_;
-  auto lap = Clock::now();
-  const auto stage = [&](const char* name) {
-    const auto now = Clock::now();
-    out.stage_ms.emplace_back(name, ms_between(lap, now));
-    lap = now;
-  };
   const int width = intrinsics_.width, height = intrinsics_.height;
-  const uint8_t* rgb = without_rolling_shutter(input_rgb);  // timed with the upload
+  const Clock::time_point resample_start = Clock::now();
+  const uint8_t* rgb = without_rolling_shutter(input_rgb);
+  const Clock::duration resample_time = Clock::now() - resample_start;
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
   frame_rgb_ = rgb;
   frame_excluded_ = &excluded;
@@ -545,6 +541,13 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
       return keyframe_pose;
     };
   }
+  // The stages start here; the colour's resampling counts in the upload.
+  auto lap = Clock::now() - resample_time;
+  const auto stage = [&](const char* name) {
+    const auto now = Clock::now();
+    out.stage_ms.emplace_back(name, ms_between(lap, now));
+    lap = now;
+  };
   std::vector<Model*> active = live_models();
   for (Model* m : active) m->tracked = false, m->settled = false, m->motion_refused = false, m->tracking = {}, m->velocity_motion.reset();
   set_work_rects(active);
