@@ -359,6 +359,7 @@ PipelineConfig load_config(const std::filesystem::path& path) {
         .field("min_fit_ratio", config.camera_check.min_fit_ratio)
         .field("photometric_weight", config.camera_check.photometric_weight)
         .field("retry_photometric_weight", config.camera_check.retry_photometric_weight)
+        .field("photometric_tile_cap", config.camera_check.photometric_tile_cap)
         .field("replaced_motion_scale", config.camera_check.replaced_motion_scale)
         .field("agreeing_frames", config.camera_check.agreeing_frames)
         .field("keyframe_pose_gain", config.camera_check.keyframe_pose_gain)
@@ -367,10 +368,10 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const auto& c = config.camera_check;
     if (c.step_px < 1 || !(c.tolerance_rel >= 0) || !(c.tolerance_m >= 0) ||
         !(c.min_fit_ratio >= 0 && c.min_fit_ratio <= 1) || !(c.photometric_weight >= 0) ||
-        !(c.retry_photometric_weight >= 0) || !(c.replaced_motion_scale >= 0 && c.replaced_motion_scale <= 1) ||
+        !(c.retry_photometric_weight >= 0) || !(c.photometric_tile_cap >= 0) || !(c.replaced_motion_scale >= 0 && c.replaced_motion_scale <= 1) ||
         c.agreeing_frames < 0 || !(c.keyframe_pose_gain >= 0 && c.keyframe_pose_gain <= 1) ||
         !(c.keyframe_pull_gain >= 0 && c.keyframe_pull_gain <= 1) || c.keyframe_pull_min_inliers < 0)
-      throw Error(q.where() + ": step_px must be >= 1, tolerances and photometric weights >= 0, min_fit_ratio, "
+      throw Error(q.where() + ": step_px must be >= 1, tolerances, photometric weights and photometric_tile_cap >= 0, min_fit_ratio, "
                               "replaced_motion_scale, keyframe_pose_gain and keyframe_pull_gain in [0, 1], "
                               "agreeing_frames and keyframe_pull_min_inliers >= 0");
   });

@@ -35,6 +35,14 @@ struct CameraCheckParams {
   // where movers cover most of the view's texture (docs/experiments.md, "Bonn crowd").
   double photometric_weight = 10.0;
   double retry_photometric_weight = 1.0;
+  // The camera's photometric residuals count by their tile's texture_tile_weights at this cap (a
+  // region of the view with more gradient energy than `cap` typical regions counts as that many);
+  // 0 = every region by its texture. A strongly textured object that starts to move slowly holds
+  // most of the colour term and drags the camera along before it can be segmented. Off by
+  // default: 8 keeps docs/validation/crossing.json's camera within 1.8 mm (3.0 without) and the
+  // real recordings as they were, but five_objects' object 5 lands 14 mm off where its motion
+  // reverses (docs/experiments.md, "Capping a region's share of the camera's colour term").
+  double photometric_tile_cap = 0;
   // A replaced motion continues the constant-velocity guess at this fraction of its speed, so a
   // run of replaced frames slows down geometrically: the velocity came from frames that may
   // already be off, and a wrong velocity carried at full speed drifts without bound (Bonn crowd:

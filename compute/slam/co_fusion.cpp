@@ -19,6 +19,8 @@
 #include "common/window_count.h"
 #include "segmentation/depthless_labels.h"
 #include "shared/depth_noise.h"
+#include "shared/host_device.h"
+#include "slam/texture_tiles.h"
 
 namespace cofusion::slam {
 using namespace internal;  // the label slots (co_fusion_model.h)
@@ -521,9 +523,12 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
   CoFusionFrame out;
   out.frame = frame_;
   const int width = intrinsics_.width, height = intrinsics_.height;
-  const Clock::time_point resample_start = Clock::now();
+  const Clock::time_point colour_start = Clock::now();
   const uint8_t* rgb = without_rolling_shutter(input_rgb);
-  const Clock::duration resample_time = Clock::now() - resample_start;
+  if (params_.camera_check.photometric_tile_cap > 0 && !models_.empty())
+    models_.front()->tracker.set_photometric_tile_weights(texture_tile_weights(
+        rgb, width, height, ICP_RGB_TILES_X, ICP_RGB_TILES_Y, params_.camera_check.photometric_tile_cap));
+  const Clock::duration colour_time = Clock::now() - colour_start;
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
   frame_rgb_ = rgb;
   frame_excluded_ = &excluded;
@@ -541,8 +546,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
       return keyframe_pose;
     };
   }
-  // The stages start here; the colour's resampling counts in the upload.
-  auto lap = Clock::now() - resample_time;
+  // The stages start here; the colour's resampling and tile weights count in the upload.
+  auto lap = Clock::now() - colour_time;
   const auto stage = [&](const char* name) {
     const auto now = Clock::now();
     out.stage_ms.emplace_back(name, ms_between(lap, now));

@@ -104,8 +104,10 @@ struct CoFusion::Model {
       t.photometric_weight = p.lifecycle.object_photometric_weight;
       t.icp_noise_reference_depth_m = p.lifecycle.object_icp_noise_reference_depth_m;
       t.iterations_per_level = p.lifecycle.object_iterations_per_level;
-    } else if (p.camera_check.enabled && p.camera_check.photometric_weight > 0) {
-      t.photometric_weight = p.camera_check.photometric_weight;
+    } else {
+      if (p.camera_check.enabled && p.camera_check.photometric_weight > 0)
+        t.photometric_weight = p.camera_check.photometric_weight;
+      t.photometric_tile_weights = p.camera_check.photometric_tile_cap > 0;
     }
     return t;
   }

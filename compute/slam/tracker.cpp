@@ -86,12 +86,27 @@ void Tracker::set_params(const TrackerParams& requested) {
   if (params.reduction_workgroups == 0)
     params.reduction_workgroups = ctx_.is_software() ? TrackerParams::kCpuReductionWorkgroups
                                                      : TrackerParams::kGpuReductionWorkgroups;
-  if (params.photometric_reweighted() && !reduce_reweighted_)
-    reduce_reweighted_.emplace(ctx_, "icp_rgb_reduce_reweighted", shaders::icp_rgb_reduce_reweighted_comp(), 10,
+  if (params.photometric_reweighted() && !reduce_reweighted_) {
+    reduce_reweighted_.emplace(ctx_, "icp_rgb_reduce_reweighted", shaders::icp_rgb_reduce_reweighted_comp(), 11,
                                sizeof(L::IcpRgbReduceParams), reduction_texel_bindings());
+    if (tile_weights_.empty()) tile_weights_.assign(ICP_RGB_TILES_X * ICP_RGB_TILES_Y, 1.0f);
+    tile_weights_buffer_ = gpu::Buffer::create(ctx_, tile_weights_.size() * sizeof(float), "tracker tile weights");
+    tile_weights_changed_ = true;
+  }
   const size_t bytes = static_cast<size_t>(params.reduction_workgroups) * ICP_RGB_PARTIAL_STRIDE * sizeof(float);
   if (!partials_ || partials_->size() < bytes) partials_ = gpu::Buffer::create(ctx_, bytes, "tracker partial sums");
   params_ = params;
+}
+
+void Tracker::set_photometric_tile_weights(std::span<const float> weights) {
+  if (weights.size() != size_t(ICP_RGB_TILES_X * ICP_RGB_TILES_Y))
+    throw Error("Tracker: " + std::to_string(weights.size()) + " tile weights, needs " +
+                std::to_string(ICP_RGB_TILES_X * ICP_RGB_TILES_Y));
+  for (float w : weights)
+    if (!(w >= 0 && std::isfinite(w))) throw Error("Tracker: a tile weight is negative or not finite");
+  if (std::equal(weights.begin(), weights.end(), tile_weights_.begin(), tile_weights_.end())) return;
+  tile_weights_.assign(weights.begin(), weights.end());
+  tile_weights_changed_ = true;
 }
 
 uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePyramid::Level& live,
@@ -118,7 +133,8 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   p.gradient_weight_c = static_cast<float>(params_.photometric_gradient_c);
   p.flags = (params_.use_photometric ? ICP_RGB_FLAG_PHOTOMETRIC : 0u) | (params_.esm_gradient ? ICP_RGB_FLAG_ESM : 0u) |
             (params_.outline_photometric ? ICP_RGB_FLAG_OUTLINE : 0u) |
-            (params_.photometric_cauchy_k > 0 ? ICP_RGB_FLAG_CAUCHY : 0u);
+            (params_.photometric_cauchy_k > 0 ? ICP_RGB_FLAG_CAUCHY : 0u) |
+            (params_.photometric_tile_weights ? ICP_RGB_FLAG_TILE_WEIGHTS : 0u);
   p.live_intensity_gain = static_cast<float>(scales.live_gain);
   p.outline_occlusion_margin_m = static_cast<float>(params_.outline_occlusion_margin_m);
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
@@ -136,9 +152,21 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   if (params_.outline_photometric && !live.depth_m) throw Error("Tracker: the outline term needs the live level's depth");
   const gpu::BufferPtr& live_depth = live.depth_m ? live.depth_m : live.intensity;
   if (cmd.profiled()) cmd.set_profile_label(std::to_string(live.width) + "x" + std::to_string(live.height));
-  cmd.dispatch(params_.photometric_reweighted() ? *reduce_reweighted_ : reduce_,
+  if (!params_.photometric_reweighted()) {
+    cmd.dispatch(reduce_,
+                 {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
+                  reference.gradient, partials_, live.gradient, live_depth},
+                 p, groups);
+    return groups;
+  }
+  if (tile_weights_changed_) {
+    gpu::record_upload(ctx_, cmd, tile_weights_buffer_, tile_weights_.data(), tile_weights_.size() * sizeof(float), 0,
+                       tile_weights_staging_);
+    tile_weights_changed_ = false;
+  }
+  cmd.dispatch(*reduce_reweighted_,
                {live.vertex, live.normal, live.intensity, reference.vertex, reference.normal, reference.intensity,
-                reference.gradient, partials_, live.gradient, live_depth},
+                reference.gradient, partials_, live.gradient, live_depth, tile_weights_buffer_},
                p, groups);
   return groups;
 }

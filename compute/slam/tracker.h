@@ -52,6 +52,10 @@ class Tracker {
 
   const TrackerParams& params() const { return params_; }
   void set_params(const TrackerParams& params);
+  // The weights of the live image's tiles (ICP_RGB_TILES_X x ICP_RGB_TILES_Y, row-major, each >= 0)
+  // for the trackings that follow, where params().photometric_tile_weights. Not while a recorded
+  // reduction of this tracker is pending. Throws cofusion::Error on a wrong count or weight.
+  void set_photometric_tile_weights(std::span<const float> weights);
 
   // compute_sums in three steps, for several trackers in one submission (track_together):
   // record_reduction records the reduction, record_readback (after it, in the same list) where
@@ -74,6 +78,11 @@ class Tracker {
   // photometric_cauchy_k), created when first needed.
   std::optional<gpu::ComputePipeline> reduce_reweighted_;
   gpu::BufferPtr partials_;
+  // set_photometric_tile_weights' weights: on the host, and the buffer the reweighted kernel reads
+  // (uploaded by the next reduction when `tile_weights_changed_`).
+  std::vector<float> tile_weights_;
+  gpu::BufferPtr tile_weights_buffer_, tile_weights_staging_;
+  bool tile_weights_changed_ = true;
   // Where the host reads the partial sums when partials_ is not mapped (a discrete GPU).
   gpu::BufferPtr partials_readback_;
 };

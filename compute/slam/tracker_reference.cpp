@@ -1,10 +1,12 @@
 #include "slam/tracker_reference.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
 #include "common/error.h"
 #include "shared/depth_noise.h"
+#include "shared/host_device.h"
 
 namespace cofusion::slam::reference {
 namespace {
@@ -61,6 +63,14 @@ double photometric_robust_sqrt_weight(double r, double delta, const TrackerParam
   return params.photometric_cauchy_k > 0 ? cauchy_sqrt_weight(r, delta) : huber_sqrt_weight(r, delta);
 }
 
+// sqrt of the weight of the tile holding live pixel (x, y) of a w x h level (ICP_RGB_FLAG_TILE_WEIGHTS).
+double tile_sqrt_weight(std::span<const float> tile_weights, int x, int y, int w, int h) {
+  if (tile_weights.empty()) return 1.0;
+  const int tx = std::min(x * ICP_RGB_TILES_X / w, ICP_RGB_TILES_X - 1);
+  const int ty = std::min(y * ICP_RGB_TILES_Y / h, ICP_RGB_TILES_Y - 1);
+  return std::sqrt(double(tile_weights[size_t(ty) * ICP_RGB_TILES_X + tx]));
+}
+
 // sqrt of the gradient weight c^2 / (c^2 + |g|^2) (TrackerParams::photometric_gradient_c).
 double gradient_sqrt_weight(double gx, double gy, double c) {
   return c > 0 ? std::sqrt(c * c / (c * c + gx * gx + gy * gy)) : 1.0;
@@ -106,7 +116,7 @@ namespace {
 // each reference pixel of `area` against the live intensity where the motion puts it.
 void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
                       const TrackerParams& params, const PixelRect& area, const IterationScales& scales,
-                      LinearSystemSums& sums) {
+                      std::span<const float> tile_weights, LinearSystemSums& sums) {
   const Intrinsics& k = live.intrinsics;
   const int w = k.width, h = k.height;
   const Eigen::Matrix3d R = T.linear();
@@ -135,7 +145,10 @@ void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::
       if (!(std::abs(r) <= params.max_intensity_diff)) continue;
       const double gx = gain * b(live.gradient, gradient_x) / 255.0, gy = gain * b(live.gradient, gradient_y) / 255.0;
       const Eigen::Vector3d G = R * intensity_jacobian(gx, gy, k, x_live);
-      const double sw = photometric_robust_sqrt_weight(r, scales.rgb, params) * gradient_sqrt_weight(gx, gy, params.photometric_gradient_c);
+      const double sw = photometric_robust_sqrt_weight(r, scales.rgb, params) *
+                        gradient_sqrt_weight(gx, gy, params.photometric_gradient_c) *
+                        tile_sqrt_weight(tile_weights, static_cast<int>(std::floor(x + 0.5)),
+                                         static_cast<int>(std::floor(y + 0.5)), w, h);
       Vector6d J;
       J << -sw * G, -sw * v_ref.cross(G);
       add(sums.rgb, J, sw * r);
@@ -145,8 +158,11 @@ void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::
 
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
                               const TrackerParams& params, const std::optional<PixelRect>& rect,
-                              const IterationScales& scales) {
+                              const IterationScales& scales, std::span<const float> tile_weights) {
   check_same_size(live, ref, "tracker reference");
+  if (!params.photometric_tile_weights) tile_weights = {};
+  if (!tile_weights.empty() && tile_weights.size() != size_t(ICP_RGB_TILES_X * ICP_RGB_TILES_Y))
+    throw Error("tracker reference: " + std::to_string(tile_weights.size()) + " tile weights");
   const Intrinsics& k = live.intrinsics;
   const int w = k.width, h = k.height;
   const Eigen::Matrix3d R = T.linear();
@@ -200,13 +216,15 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
           gy = 0.5 * (gy + scales.live_gain * live.gradient.at(u, v).y / 255.0);
         }
         const Eigen::Vector3d dI_dq = intensity_jacobian(gx, gy, k, q);
-        const double sw = photometric_robust_sqrt_weight(r, scales.rgb, params) * gradient_sqrt_weight(gx, gy, params.photometric_gradient_c);
+        const double sw = photometric_robust_sqrt_weight(r, scales.rgb, params) *
+                          gradient_sqrt_weight(gx, gy, params.photometric_gradient_c) *
+                          tile_sqrt_weight(tile_weights, u, v, w, h);
         Vector6d J;
         J << sw * dI_dq, sw * q.cross(dI_dq);
         add(sums.rgb, J, sw * r);
       }
     }
-  if (params.use_photometric && params.outline_photometric) add_outline_term(live, ref, T, params, area, scales, sums);
+  if (params.use_photometric && params.outline_photometric) add_outline_term(live, ref, T, params, area, scales, tile_weights, sums);
   return sums;
 }
 

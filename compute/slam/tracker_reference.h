@@ -3,6 +3,7 @@
 // plain loop in double over host copies of the maps, and a CPU-only track() that runs the same
 // Gauss-Newton loop (tracker_solver.h) on them. Written independently of the shader, for tests.
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -34,9 +35,12 @@ std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<ke
 // The sums of one iteration at pose T_reference_live (same definition as the GPU reduction).
 // `rect`: only live pixels in it take part (none = all). `scales`: residuals beyond its Huber
 // thresholds get weight delta / |r| (0 = none); the live intensity is multiplied by its gain.
+// `tile_weights`: Tracker::set_photometric_tile_weights' weights, read where
+// params.photometric_tile_weights (empty = all 1).
 LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& reference,
                               const Eigen::Isometry3d& T_reference_live, const TrackerParams& params,
-                              const std::optional<PixelRect>& rect = std::nullopt, const IterationScales& scales = {});
+                              const std::optional<PixelRect>& rect = std::nullopt, const IterationScales& scales = {},
+                              std::span<const float> tile_weights = {});
 
 // Coarse-to-fine tracking on the CPU; same contract as Tracker::track.
 TrackingResult track(const std::vector<HostLevel>& live, const std::vector<HostLevel>& reference,

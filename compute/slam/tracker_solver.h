@@ -82,8 +82,11 @@ struct TrackerParams {
   double photometric_cauchy_k = 0;
   // The scale factor of the photometric term's robust weight (Cauchy's or Huber's).
   double photometric_robust_k() const { return photometric_cauchy_k > 0 ? photometric_cauchy_k : photometric_huber_k; }
-  // Whether photometric residuals need the reweighted reduction kernel (Cauchy or gradient weights).
-  bool photometric_reweighted() const { return photometric_gradient_c > 0 || photometric_cauchy_k > 0; }
+  // Whether photometric residuals need the reweighted reduction kernel (Cauchy, gradient or tile
+  // weights).
+  bool photometric_reweighted() const {
+    return photometric_gradient_c > 0 || photometric_cauchy_k > 0 || photometric_tile_weights;
+  }
   // Robust ICP term, by the same rule: point-to-plane residuals beyond icp_huber_k times the
   // previous iteration's RMS ICP residual get Huber weight delta / |r| (0 = never robust). Points
   // of something that moves a little (a person close to the camera), inside the correspondence
@@ -101,6 +104,10 @@ struct TrackerParams {
   // g the intensity gradient there (intensity / 255 per pixel) and c this; 0 = every residual by
   // its robust weight alone.
   double photometric_gradient_c = 0;
+  // Photometric residuals of live pixels count by their tile's weight (ICP_RGB_TILES_X x
+  // ICP_RGB_TILES_Y tiles of each level), as Tracker::set_photometric_tile_weights last set them
+  // (1 until then): the camera's, by CameraCheckParams::photometric_tile_cap.
+  bool photometric_tile_weights = false;
   // Exposure compensation: the live intensity is multiplied by a gain, re-estimated at every
   // iteration as sum(I_reference) / sum(I_live) over the photometric term's pixels, before the
   // photometric residuals are formed. Auto-exposure changes a frame's brightness by 20% within a

@@ -393,6 +393,12 @@ struct TestTexelParams {
 #define ICP_RGB_BINDING_PARTIALS 7        // float[workgroups * ICP_RGB_PARTIAL_STRIDE]
 #define ICP_RGB_BINDING_LIVE_GRADIENT 8   // vec2[] live d intensity / d pixel (read when esm_gradient != 0)
 #define ICP_RGB_BINDING_LIVE_DEPTH 9      // float[] live depth, metres, not masked (the outline term's occlusion test)
+// float[ICP_RGB_TILES_X * ICP_RGB_TILES_Y], row-major: the weight of the photometric residuals of
+// live pixels in each tile of the level (ICP_RGB_FLAG_TILE_WEIGHTS; icp_rgb_reduce_reweighted.comp
+// only, which has this eleventh binding).
+#define ICP_RGB_BINDING_TILE_WEIGHTS 10
+#define ICP_RGB_TILES_X 8  // tiles across a level: pixel x lies in tile x * ICP_RGB_TILES_X / width
+#define ICP_RGB_TILES_Y 6
 #define ICP_RGB_GROUP_SIZE 256            // invocations per workgroup
 #define ICP_RGB_TERM_VALUES 29            // values per term (see above)
 #define ICP_RGB_OFFSET_ICP 0
@@ -414,6 +420,10 @@ struct TestTexelParams {
 // Photometric residuals get Cauchy's weight 1 / (1 + (r / rgb_huber_delta)^2) instead of Huber's
 // (TrackerParams::photometric_cauchy_k). Read only by icp_rgb_reduce_reweighted.comp.
 #define ICP_RGB_FLAG_CAUCHY 8u
+// Photometric residuals of a live pixel (the outline term: of the live pixel nearest to where the
+// motion puts the model's) are weighted by its tile's ICP_RGB_BINDING_TILE_WEIGHTS entry
+// (CameraCheckParams::photometric_tile_cap). Read only by icp_rgb_reduce_reweighted.comp.
+#define ICP_RGB_FLAG_TILE_WEIGHTS 16u
 #define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup (16 vec4)
 #define ICP_RGB_MAX_SUBGROUPS 64          // shared memory holds this many subgroups: subgroup size >= 4
 struct IcpRgbReduceParams {

@@ -1,8 +1,8 @@
 // The body of icp_rgb_reduce.comp and icp_rgb_reduce_reweighted.comp (see the former); with
 // ICP_RGB_REWEIGHTED defined, photometric residuals carry gradient-dependent weights
-// (IcpRgbReduceParams::gradient_weight_c) and, with ICP_RGB_FLAG_CAUCHY, Cauchy's robust weight
-// instead of Huber's. Without it the code is exactly the plain kernel's, so results stay
-// bit-identical where these options are off.
+// (IcpRgbReduceParams::gradient_weight_c), with ICP_RGB_FLAG_CAUCHY Cauchy's robust weight instead
+// of Huber's, and with ICP_RGB_FLAG_TILE_WEIGHTS their live tile's weight. Without it the code is
+// exactly the plain kernel's, so results stay bit-identical where these options are off.
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "shared/host_device.h"
@@ -19,6 +19,9 @@ layout(binding = ICP_RGB_BINDING_REF_GRADIENT) uniform usamplerBuffer ref_gradie
 layout(std430, binding = ICP_RGB_BINDING_PARTIALS) writeonly buffer Partials { float partials[]; };
 layout(binding = ICP_RGB_BINDING_LIVE_GRADIENT) uniform usamplerBuffer live_gradient;  // texel view of vec2
 layout(binding = ICP_RGB_BINDING_LIVE_DEPTH) uniform usamplerBuffer live_depth;  // texel view of float
+#ifdef ICP_RGB_REWEIGHTED
+layout(std430, binding = ICP_RGB_BINDING_TILE_WEIGHTS) readonly buffer TileWeights { float tile_weights[]; };
+#endif
 layout(push_constant) uniform Push { IcpRgbReduceParams p; };
 
 // 16 vec4 per subgroup: 8 for the ICP term (its 29 values, the valid and occluding live counts), 8 for the
@@ -62,12 +65,19 @@ float gradient_sqrt_weight(vec2 g) {
 float cauchy_sqrt_weight(float r, float delta) {
   return delta > 0.0 ? inversesqrt(1.0 + (r / delta) * (r / delta)) : 1.0;
 }
+// sqrt of the weight of the tile holding live pixel (x, y) (ICP_RGB_FLAG_TILE_WEIGHTS; else 1).
+float tile_sqrt_weight(int x, int y) {
+  if ((p.flags & ICP_RGB_FLAG_TILE_WEIGHTS) == 0u) return 1.0;
+  const int tx = min(x * ICP_RGB_TILES_X / int(p.width), ICP_RGB_TILES_X - 1);
+  const int ty = min(y * ICP_RGB_TILES_Y / int(p.height), ICP_RGB_TILES_Y - 1);
+  return sqrt(tile_weights[ty * ICP_RGB_TILES_X + tx]);
+}
 // A photometric residual's sqrt weight: the robust weight (ICP_RGB_FLAG_CAUCHY: Cauchy's, else
-// Huber's) times the gradient weight.
-float photometric_sqrt_weight(float r, vec2 g) {
+// Huber's) times the gradient weight and the weight of the tile of live pixel (x, y).
+float photometric_sqrt_weight(float r, vec2 g, int x, int y) {
   const float robust = (p.flags & ICP_RGB_FLAG_CAUCHY) != 0u ? cauchy_sqrt_weight(r, p.rgb_huber_delta)
                                                              : huber_sqrt_weight(r, p.rgb_huber_delta);
-  return robust * gradient_sqrt_weight(g);
+  return robust * gradient_sqrt_weight(g) * tile_sqrt_weight(x, y);
 }
 #endif
 // Weights of the pixels (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1) at fraction a.
@@ -145,7 +155,7 @@ void main() {
             g = 0.5 * (g + p.live_intensity_gain * texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
 #ifdef ICP_RGB_REWEIGHTED
-          const float sw = photometric_sqrt_weight(r, g);
+          const float sw = photometric_sqrt_weight(r, g, int(i % p.width), int(i / p.width));
 #else
           const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
 #endif
@@ -192,7 +202,7 @@ void main() {
                       wts.z * texel_vec2(live_gradient, i01) + wts.w * texel_vec2(live_gradient, i11)) * (1.0 / 255.0);
       const vec3 G = R * intensity_jacobian(g, x_live);
 #ifdef ICP_RGB_REWEIGHTED
-      const float sw = photometric_sqrt_weight(r, g);
+      const float sw = photometric_sqrt_weight(r, g, int(floor(u + 0.5)), int(floor(v + 0.5)));
 #else
       const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
 #endif

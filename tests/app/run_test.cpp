@@ -595,6 +595,20 @@ TEST(RunCommand, PhotometricReweightingConfigsAreReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
+// The cap on a tile's share of the camera's colour term (CameraCheckParams::photometric_tile_cap):
+// read, checked, and a run with it and the gradient weights (both in the reweighted kernel)
+// completes.
+TEST(RunCommand, PhotometricTileCapIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  const Result r = run_with_config(dir, "config.json", R"({"camera_check": {"photometric_tile_cap": -1}})");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("photometric_tile_cap >= 0")) << r.output;
+  const Result ok = run_with_config(
+      dir, "ok.json", R"({"camera_check": {"photometric_tile_cap": 8}, "tracker": {"photometric_gradient_c": 0.05}})",
+      "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 TEST(RunCommand, MergeWindowStepIsReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   const Result bad = run_with_config(dir, "config.json", R"({"fusion": {"merge_window_step_cells": 0}})");

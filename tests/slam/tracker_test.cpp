@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -22,6 +23,7 @@
 #include "io/trajectory_lookup.h"
 #include "kernels/preprocess.h"
 #include "shared/depth_noise.h"
+#include "shared/host_device.h"
 #include "slam/tracker.h"
 #include "slam/tracker_reference.h"
 #include "support/gpu_fixture.h"
@@ -334,6 +336,40 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       if (s.w >= 160) {
         EXPECT_LT(cc.rgb[27], 0.98 * c_huber.rgb[27]) << label << ": no residual was weighed down more";
       }
+    }
+
+    // Tile weights on the photometric residuals (TrackerParams::photometric_tile_weights), on the
+    // direct and the outline term: tiles weighted 0, 0.25 and 1 in turn, GPU and CPU alike; the
+    // same residuals, their sum of squares down; the ICP term untouched.
+    {
+      std::vector<float> weights(ICP_RGB_TILES_X * ICP_RGB_TILES_Y);
+      for (size_t i = 0; i < weights.size(); ++i) weights[i] = std::array{0.0f, 0.25f, 1.0f}[i % 3];
+      slam::TrackerParams tiled = params;
+      tiled.photometric_tile_weights = true;
+      tiled.outline_photometric = true;
+      slam::TrackerParams untiled = tiled;
+      untiled.photometric_tile_weights = false;
+      tracker_->set_photometric_tile_weights(weights);
+      const auto [g, c] = [&] {
+        tracker_->set_params(tiled);
+        const slam::LinearSystemSums gt = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
+        tracker_->set_params(params);
+        return std::pair(gt, ref::compute_sums(live_host, reference_host, T, tiled, std::nullopt, {}, weights));
+      }();
+      const auto [g_plain, c_plain] = gpu_and_cpu(untiled);
+      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " tile-weighted rgb");
+      EXPECT_EQ(c.icp, cpu.icp) << what;
+      EXPECT_EQ(c.rgb[28], c_plain.rgb[28]) << what;
+      if (s.w >= 160) {
+        EXPECT_LT(c.rgb[27], 0.8 * c_plain.rgb[27]) << what << ": no residual was weighed down";
+        EXPECT_GT(c.rgb[27], 0.1 * c_plain.rgb[27]) << what << ": every residual was weighed down";
+      }
+      // Weights of all 1 are the plain sums.
+      tracker_->set_photometric_tile_weights(std::vector<float>(weights.size(), 1.0f));
+      tracker_->set_params(tiled);
+      const slam::LinearSystemSums ones = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
+      tracker_->set_params(params);
+      expect_sums_near(ones.rgb, c_plain.rgb, 2e-3, what + " tile weights of 1");
     }
 
     // An exposure gain on the live intensity (IterationScales::live_gain), with the outline term:
@@ -854,6 +890,13 @@ TEST_F(Tracking, MismatchedInputsThrow) {
   EXPECT_THROW(tracker_->track(stream(), a.levels, a.levels, Isometry3d::Identity()), Error);
   bad.max_correspondence_distance_m = -1;
   EXPECT_THROW(tracker_->set_params(bad), Error);
+  const size_t tiles = ICP_RGB_TILES_X * ICP_RGB_TILES_Y;
+  EXPECT_THROW(tracker_->set_photometric_tile_weights(std::vector<float>(tiles - 1, 1.0f)), Error);
+  std::vector<float> weights(tiles, 1.0f);
+  weights[5] = -0.5f;
+  EXPECT_THROW(tracker_->set_photometric_tile_weights(weights), Error);
+  weights[5] = std::nanf("");
+  EXPECT_THROW(tracker_->set_photometric_tile_weights(weights), Error);
 }
 
 // track_together runs every job's Gauss-Newton loop in lockstep: each job's result must be the
