@@ -158,7 +158,12 @@ SoakReport run_soak(gpu::Context& ctx, const SoakOptions& o) {
   WindowAccumulator window;
   slam::CoFusionFrame last;
   for (long i = 0; i < o.frames; ++i) {
-    const Frame& f = frames[size_t(ping_pong_frame(i, report.source_frames))];
+    const int index = ping_pong_frame(i, report.source_frames);
+    const Frame& f = frames[size_t(index)];
+    // A frame played backwards holds the shear of the camera's forward motion while the pipeline
+    // sees it move the other way: its colour is not resampled.
+    const bool backwards = i > 0 && index < ping_pong_frame(i - 1, report.source_frames);
+    slam.note_frame_time(f.timestamp_s, backwards ? 0.0 : f.colour_readout_s);
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start_ms = process_cpu_ms();
     last = slam.process(f.depth_m.ptr<float>(), f.rgb.data);
