@@ -368,12 +368,13 @@ PipelineConfig load_config(const std::filesystem::path& path) {
     const auto& c = config.camera_check;
     if (c.step_px < 1 || !(c.tolerance_rel >= 0) || !(c.tolerance_m >= 0) ||
         !(c.min_fit_ratio >= 0 && c.min_fit_ratio <= 1) || !(c.photometric_weight >= 0) ||
-        !(c.retry_photometric_weight >= 0) || !(c.photometric_tile_cap >= 0) || !(c.replaced_motion_scale >= 0 && c.replaced_motion_scale <= 1) ||
-        c.agreeing_frames < 0 || !(c.keyframe_pose_gain >= 0 && c.keyframe_pose_gain <= 1) ||
+        !(c.retry_photometric_weight >= 0) || !(c.photometric_tile_cap >= 0) ||
+        !(c.replaced_motion_scale >= 0 && c.replaced_motion_scale <= 1) || c.agreeing_frames < 0 ||
+        !(c.keyframe_pose_gain >= 0 && c.keyframe_pose_gain <= 1) ||
         !(c.keyframe_pull_gain >= 0 && c.keyframe_pull_gain <= 1) || c.keyframe_pull_min_inliers < 0)
-      throw Error(q.where() + ": step_px must be >= 1, tolerances, photometric weights and photometric_tile_cap >= 0, min_fit_ratio, "
-                              "replaced_motion_scale, keyframe_pose_gain and keyframe_pull_gain in [0, 1], "
-                              "agreeing_frames and keyframe_pull_min_inliers >= 0");
+      throw Error(q.where() + ": step_px must be >= 1, tolerances, photometric weights and photometric_tile_cap >= 0, "
+                              "min_fit_ratio, replaced_motion_scale, keyframe_pose_gain and keyframe_pull_gain in "
+                              "[0, 1], agreeing_frames and keyframe_pull_min_inliers >= 0");
   });
   s.section("rolling_shutter", file + ": rolling_shutter", [&](Section& q) {
     double readout_s = config.rolling_shutter.colour_readout_s.value_or(0.0);

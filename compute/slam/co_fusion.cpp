@@ -19,7 +19,6 @@
 #include "common/window_count.h"
 #include "segmentation/depthless_labels.h"
 #include "shared/depth_noise.h"
-#include "shared/host_device.h"
 #include "slam/texture_tiles.h"
 
 namespace cofusion::slam {
@@ -526,8 +525,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
   const Clock::time_point colour_start = Clock::now();
   const uint8_t* rgb = without_rolling_shutter(input_rgb);
   if (params_.camera_check.photometric_tile_cap > 0 && !models_.empty())
-    models_.front()->tracker.set_photometric_tile_weights(texture_tile_weights(
-        rgb, width, height, ICP_RGB_TILES_X, ICP_RGB_TILES_Y, params_.camera_check.photometric_tile_cap));
+    models_.front()->tracker.set_photometric_tile_weights(
+        texture_tile_weights(rgb, width, height, params_.camera_check.photometric_tile_cap));
   const Clock::duration colour_time = Clock::now() - colour_start;
   const std::vector<uint8_t> excluded = begin_semantic_frame(semantic);
   frame_rgb_ = rgb;

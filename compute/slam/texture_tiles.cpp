@@ -4,11 +4,12 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "shared/host_device.h"
+
 namespace cofusion::slam {
 
-std::vector<float> texture_tile_weights(const uint8_t* rgb, int width, int height, int tiles_x, int tiles_y,
-                                        double cap) {
-  std::vector<float> weights(size_t(tiles_x) * tiles_y, 1.0f);
+std::vector<float> texture_tile_weights(const uint8_t* rgb, int width, int height, double cap) {
+  std::vector<float> weights(ICP_RGB_TILES_X * ICP_RGB_TILES_Y, 1.0f);
   if (cap <= 0 || width < 3 || height < 3) return weights;
   const cv::Mat colour(height, width, CV_8UC3, const_cast<uint8_t*>(rgb));
   cv::Mat colour_f, intensity, gx, gy;
@@ -20,8 +21,8 @@ std::vector<float> texture_tile_weights(const uint8_t* rgb, int width, int heigh
   for (int y = 0; y < height; ++y) {
     const float* ax = gx.ptr<float>(y);
     const float* ay = gy.ptr<float>(y);
-    double* row = energy.data() + size_t(std::min(y * tiles_y / height, tiles_y - 1)) * tiles_x;
-    for (int x = 0; x < width; ++x) row[std::min(x * tiles_x / width, tiles_x - 1)] += ax[x] * ax[x] + ay[x] * ay[x];
+    for (int x = 0; x < width; ++x)
+      energy[size_t(gpu_layout::icp_rgb_tile(x, y, width, height))] += ax[x] * ax[x] + ay[x] * ay[x];
   }
   std::vector<double> sorted = energy;
   std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());

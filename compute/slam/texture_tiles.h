@@ -8,11 +8,11 @@
 
 namespace cofusion::slam {
 
-// The weight of each of tiles_x x tiles_y tiles (row-major) of a width x height RGB8 image: 1 where
-// the tile's gradient energy (the sum of |grad I|^2 over its pixels, I = (r + g + b) / 3, Sobel)
-// is at most `cap` times the median tile's, else cap * median / energy, so that no tile counts
-// for more than `cap` typical ones. All 1 where the median tile has no texture at all or cap <= 0.
-std::vector<float> texture_tile_weights(const uint8_t* rgb, int width, int height, int tiles_x, int tiles_y,
-                                        double cap);
+// The weight of each of the tracker's tiles (gpu_layout::icp_rgb_tile: ICP_RGB_TILES_X x
+// ICP_RGB_TILES_Y, row-major) of a width x height RGB8 image: 1 where the tile's gradient energy
+// (the sum of |grad I|^2 over its pixels, I = (r + g + b) / 3, Sobel) is at most `cap` times the
+// median tile's, else cap * median / energy, so that no tile counts for more than `cap` typical
+// ones. All 1 where the median tile has no texture at all or cap <= 0.
+std::vector<float> texture_tile_weights(const uint8_t* rgb, int width, int height, double cap);
 
 }  // namespace cofusion::slam

@@ -1,6 +1,5 @@
 #include "slam/tracker_reference.h"
 
-#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -65,10 +64,7 @@ double photometric_robust_sqrt_weight(double r, double delta, const TrackerParam
 
 // sqrt of the weight of the tile holding live pixel (x, y) of a w x h level (ICP_RGB_FLAG_TILE_WEIGHTS).
 double tile_sqrt_weight(std::span<const float> tile_weights, int x, int y, int w, int h) {
-  if (tile_weights.empty()) return 1.0;
-  const int tx = std::min(x * ICP_RGB_TILES_X / w, ICP_RGB_TILES_X - 1);
-  const int ty = std::min(y * ICP_RGB_TILES_Y / h, ICP_RGB_TILES_Y - 1);
-  return std::sqrt(double(tile_weights[size_t(ty) * ICP_RGB_TILES_X + tx]));
+  return tile_weights.empty() ? 1.0 : std::sqrt(double(tile_weights[size_t(gpu_layout::icp_rgb_tile(x, y, w, h))]));
 }
 
 // sqrt of the gradient weight c^2 / (c^2 + |g|^2) (TrackerParams::photometric_gradient_c).

@@ -1,4 +1,5 @@
-// Struct layouts and binding numbers shared by C++ and GLSL. Depends on nothing else.
+// Struct layouts, binding numbers and the tracker's tile index (icp_rgb_tile) shared by C++ and
+// GLSL. Depends on nothing else.
 // Rules: scalars and vec4-sized members only (no vec3 in std430 arrays); every struct used on
 // the C++ side has static_asserts on size and offsets in compute/gpu/layout_checks.cpp.
 #ifndef COFUSION_HOST_DEVICE_H
@@ -397,7 +398,7 @@ struct TestTexelParams {
 // live pixels in each tile of the level (ICP_RGB_FLAG_TILE_WEIGHTS; icp_rgb_reduce_reweighted.comp
 // only, which has this eleventh binding).
 #define ICP_RGB_BINDING_TILE_WEIGHTS 10
-#define ICP_RGB_TILES_X 8  // tiles across a level: pixel x lies in tile x * ICP_RGB_TILES_X / width
+#define ICP_RGB_TILES_X 8  // tiles across a level (icp_rgb_tile)
 #define ICP_RGB_TILES_Y 6
 #define ICP_RGB_GROUP_SIZE 256            // invocations per workgroup
 #define ICP_RGB_TERM_VALUES 29            // values per term (see above)
@@ -491,6 +492,18 @@ struct ViewResolveParams {
   float confidence_max;     // confidence mapped to the top of the colour map
   float ambient;            // shading: ambient + (1 - ambient) * |cos(normal, view ray)|
 };
+
+// The tile (row-major, of ICP_RGB_TILES_X x ICP_RGB_TILES_Y) holding pixel (x, y) of a
+// width x height image: the tracker's tile weights (ICP_RGB_BINDING_TILE_WEIGHTS), on the GPU, in
+// its CPU reference and where the host computes them.
+#ifdef __cplusplus
+inline
+#endif
+int icp_rgb_tile(int x, int y, int width, int height) {
+  const int tx = x * ICP_RGB_TILES_X / width, ty = y * ICP_RGB_TILES_Y / height;
+  return (ty < ICP_RGB_TILES_Y - 1 ? ty : ICP_RGB_TILES_Y - 1) * ICP_RGB_TILES_X +
+         (tx < ICP_RGB_TILES_X - 1 ? tx : ICP_RGB_TILES_X - 1);
+}
 
 #ifdef __cplusplus
 }  // namespace cofusion::gpu_layout

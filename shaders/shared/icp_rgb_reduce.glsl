@@ -68,9 +68,7 @@ float cauchy_sqrt_weight(float r, float delta) {
 // sqrt of the weight of the tile holding live pixel (x, y) (ICP_RGB_FLAG_TILE_WEIGHTS; else 1).
 float tile_sqrt_weight(int x, int y) {
   if ((p.flags & ICP_RGB_FLAG_TILE_WEIGHTS) == 0u) return 1.0;
-  const int tx = min(x * ICP_RGB_TILES_X / int(p.width), ICP_RGB_TILES_X - 1);
-  const int ty = min(y * ICP_RGB_TILES_Y / int(p.height), ICP_RGB_TILES_Y - 1);
-  return sqrt(tile_weights[ty * ICP_RGB_TILES_X + tx]);
+  return sqrt(tile_weights[icp_rgb_tile(x, y, int(p.width), int(p.height))]);
 }
 // A photometric residual's sqrt weight: the robust weight (ICP_RGB_FLAG_CAUCHY: Cauchy's, else
 // Huber's) times the gradient weight and the weight of the tile of live pixel (x, y).

@@ -31,7 +31,7 @@ TEST(TextureTiles, ACheckerTileIsCappedAtTypicalTilesWorth) {
   const int w = 640, h = 480;
   // The checker fills tile (2, 1) of 8 x 6 (80 x 80 pixels each) and nothing else.
   const auto rgb = textured_image(w, h, 4.0, 160, 80, 240, 160);
-  const std::vector<float> weights = texture_tile_weights(rgb.data(), w, h, 8, 6, 8.0);
+  const std::vector<float> weights = texture_tile_weights(rgb.data(), w, h, 8.0);
   ASSERT_EQ(weights.size(), 48u);
   for (size_t i = 0; i < weights.size(); ++i) {
     if (i == 1 * 8 + 2) {
@@ -45,7 +45,7 @@ TEST(TextureTiles, ACheckerTileIsCappedAtTypicalTilesWorth) {
   }
   // A cap above the checker's share leaves it at 1; no cap leaves every tile at 1.
   for (double cap : {1e6, 0.0}) {
-    const std::vector<float> all = texture_tile_weights(rgb.data(), w, h, 8, 6, cap);
+    const std::vector<float> all = texture_tile_weights(rgb.data(), w, h, cap);
     EXPECT_EQ(all, std::vector<float>(48, 1.0f)) << cap;
   }
 }
@@ -56,8 +56,8 @@ TEST(TextureTiles, EvenTextureAndNoTextureKeepEveryTile) {
     const auto flat = textured_image(w, h, 0.0, 0, 0, 0, 0);
     // Noise is even, so every tile is within 8 typical ones (tiles of a 37 x 23 image differ in
     // pixel count by at most a third); a flat image has no texture to weigh.
-    EXPECT_EQ(texture_tile_weights(noise.data(), w, h, 8, 6, 8.0), std::vector<float>(48, 1.0f)) << w << "x" << h;
-    EXPECT_EQ(texture_tile_weights(flat.data(), w, h, 8, 6, 8.0), std::vector<float>(48, 1.0f)) << w << "x" << h;
+    EXPECT_EQ(texture_tile_weights(noise.data(), w, h, 8.0), std::vector<float>(48, 1.0f)) << w << "x" << h;
+    EXPECT_EQ(texture_tile_weights(flat.data(), w, h, 8.0), std::vector<float>(48, 1.0f)) << w << "x" << h;
   }
 }
 

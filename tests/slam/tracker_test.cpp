@@ -231,14 +231,19 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
     const auto reference_host = ref::download_level(stream(), reference.levels[0]);
     const slam::LinearSystemSums gpu = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
     const slam::LinearSystemSums cpu = ref::compute_sums(live_host, reference_host, T, params);
-    // The GPU's and the CPU reference's sums with other parameters (the tracker's are restored).
+    // The GPU's and the CPU reference's sums with other parameters (the tracker's are restored)
+    // and, where q.photometric_tile_weights, these tile weights.
     const auto gpu_and_cpu = [&](const slam::TrackerParams& q, const std::optional<PixelRect>& rect = std::nullopt,
-                                 const slam::IterationScales& scales = {}) {
+                                 const slam::IterationScales& scales = {},
+                                 const std::vector<float>& tile_weights = std::vector<float>(ICP_RGB_TILES_X *
+                                                                                                 ICP_RGB_TILES_Y,
+                                                                                             1.0f)) {
       tracker_->set_params(q);
+      tracker_->set_photometric_tile_weights(tile_weights);
       const slam::LinearSystemSums g =
           tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T, rect, scales);
       tracker_->set_params(params);
-      return std::pair(g, ref::compute_sums(live_host, reference_host, T, q, rect, scales));
+      return std::pair(g, ref::compute_sums(live_host, reference_host, T, q, rect, scales, tile_weights));
     };
     EXPECT_EQ(gpu.valid_live_pixels, cpu.valid_live_pixels) << what;
     EXPECT_EQ(gpu.occluding_live_pixels, cpu.occluding_live_pixels) << what;
@@ -349,13 +354,7 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       tiled.outline_photometric = true;
       slam::TrackerParams untiled = tiled;
       untiled.photometric_tile_weights = false;
-      tracker_->set_photometric_tile_weights(weights);
-      const auto [g, c] = [&] {
-        tracker_->set_params(tiled);
-        const slam::LinearSystemSums gt = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
-        tracker_->set_params(params);
-        return std::pair(gt, ref::compute_sums(live_host, reference_host, T, tiled, std::nullopt, {}, weights));
-      }();
+      const auto [g, c] = gpu_and_cpu(tiled, std::nullopt, {}, weights);
       const auto [g_plain, c_plain] = gpu_and_cpu(untiled);
       expect_sums_near(g.rgb, c.rgb, 2e-3, what + " tile-weighted rgb");
       EXPECT_EQ(c.icp, cpu.icp) << what;
@@ -365,11 +364,8 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
         EXPECT_GT(c.rgb[27], 0.1 * c_plain.rgb[27]) << what << ": every residual was weighed down";
       }
       // Weights of all 1 are the plain sums.
-      tracker_->set_photometric_tile_weights(std::vector<float>(weights.size(), 1.0f));
-      tracker_->set_params(tiled);
-      const slam::LinearSystemSums ones = tracker_->compute_sums(stream(), live.levels[0], reference.levels[0], T);
-      tracker_->set_params(params);
-      expect_sums_near(ones.rgb, c_plain.rgb, 2e-3, what + " tile weights of 1");
+      const auto [g_ones, c_ones] = gpu_and_cpu(tiled);
+      expect_sums_near(g_ones.rgb, c_plain.rgb, 2e-3, what + " tile weights of 1");
     }
 
     // An exposure gain on the live intensity (IterationScales::live_gain), with the outline term:
