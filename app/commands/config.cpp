@@ -206,6 +206,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("object_outline_photometric", c.object_outline_photometric)
       .field("object_outline_at_border", c.object_outline_at_border)
       .field("object_photometric_weight", c.object_photometric_weight)
+      .field("object_max_intensity_diff", c.object_max_intensity_diff)
       .field("object_icp_noise_reference_depth_m", c.object_icp_noise_reference_depth_m)
       .field("object_iterations_per_level", c.object_iterations_per_level)
       .field("rising_min_cost_m", c.rising_min_cost_m)
@@ -230,6 +231,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   if (!(c.slide_min_shift_px >= 0 && c.slide_min_intensity >= 0 && c.slide_min_fraction >= 0 && c.slide_min_fraction <= 1))
     throw Error(where + ".slide_*: must be >= 0, slide_min_fraction at most 1");
   if (!(c.object_photometric_weight >= 0)) throw Error(where + ".object_photometric_weight: must be >= 0");
+  if (!(c.object_max_intensity_diff > 0)) throw Error(where + ".object_max_intensity_diff: must be > 0");
   if (!(c.object_icp_noise_reference_depth_m >= 0))
     throw Error(where + ".object_icp_noise_reference_depth_m: must be >= 0");
   if (c.max_active_models < 1 || c.max_active_models > 31) throw Error(where + ".max_active_models: must be 1..31");

@@ -231,6 +231,14 @@ struct LifecycleParams {
   // turning about its axis drifted 16 mm at 1.0, 5 mm at 0.05 (docs/experiments.md). 0 loses
   // boxes that slide along a face (nothing but texture sees that motion).
   double object_photometric_weight = 0.05;
+  // Object models' photometric outlier bound (TrackerParams::max_intensity_diff: a pair whose
+  // |I_ref - I_live| / 255 exceeds it is left out; the background keeps its 0.3, against the
+  // movers it must ignore). An object's live pixels are its own segment and its outline skips what
+  // is nearer than it, so its large differences are mostly its own texture's edges; the
+  // background's bound left out a printed box face's stripes (orange and dark, 83 levels or 0.33
+  // apart), whose edges are what fix a box sliding along that face: it lagged 0.5-1.2 mm more
+  // (docs/experiments.md, "Objects keep their strong edges").
+  double object_max_intensity_diff = 0.5;
   // That ratio holds at this depth; object ICP pairs deeper than it count by their depth noise
   // (TrackerParams::icp_noise_reference_depth_m), so that far, noisy depth does not outweigh the
   // colour (a wall patch at 3.7 m tracked by its plane alone slides along it). 0 = unweighted.

@@ -569,7 +569,7 @@ TEST(RunCommand, RollingShutterConfigIsReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
-TEST(RunCommand, ObjectPhotometricWeightIsReadAndChecked) {
+TEST(RunCommand, ObjectPhotometricSettingsAreReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   const Result r = run_with_config(dir, "config.json", R"({"lifecycle": {"object_photometric_weight": -0.1}})");
   EXPECT_NE(r.exit_code, 0);
@@ -577,7 +577,11 @@ TEST(RunCommand, ObjectPhotometricWeightIsReadAndChecked) {
   const Result depth = run_with_config(dir, "depth.json", R"({"lifecycle": {"object_icp_noise_reference_depth_m": -1}})");
   EXPECT_NE(depth.exit_code, 0);
   EXPECT_THAT(depth.output, HasSubstr("object_icp_noise_reference_depth_m: must be >= 0")) << depth.output;
-  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"object_photometric_weight": 1}})", "--max-frames 3 ");
+  const Result bound = run_with_config(dir, "bound.json", R"({"lifecycle": {"object_max_intensity_diff": 0}})");
+  EXPECT_NE(bound.exit_code, 0);
+  EXPECT_THAT(bound.output, HasSubstr("object_max_intensity_diff: must be > 0")) << bound.output;
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.3}})",
+                                    "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 

@@ -24,6 +24,7 @@
 #include "kernels/preprocess.h"
 #include "shared/depth_noise.h"
 #include "shared/host_device.h"
+#include "slam/co_fusion.h"
 #include "slam/tracker.h"
 #include "slam/tracker_reference.h"
 #include "support/gpu_fixture.h"
@@ -269,6 +270,27 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       EXPECT_EQ(c.rgb[28], cpu.rgb[28]) << what;
       if (s.w >= 160) {
         EXPECT_GT(std::abs(c.rgb[0] - cpu.rgb[0]), 1e-3 * cpu.rgb[0]) << what << ": ESM made no difference";
+      }
+    }
+
+    // The photometric outlier bound (TrackerParams::max_intensity_diff) on the direct and the
+    // outline term: a tight one leaves pairs out, objects' (LifecycleParams::object_max_intensity_diff)
+    // none; GPU and CPU alike either way, the ICP term untouched.
+    for (const double bound : {0.02, slam::LifecycleParams{}.object_max_intensity_diff}) {
+      slam::TrackerParams q = params;
+      q.max_intensity_diff = bound;
+      q.outline_photometric = true;
+      const auto [g, c] = gpu_and_cpu(q);
+      const std::string b = what + " with outlier bound " + std::to_string(bound);
+      expect_sums_near(g.rgb, c.rgb, 2e-3, b + " rgb");
+      EXPECT_EQ(c.icp, cpu.icp) << b;
+      if (s.w >= 160 && bound < params.max_intensity_diff) {
+        EXPECT_LT(c.rgb[28], 0.9 * cpu.rgb[28]) << b << ": no pair was left out";
+      }
+      if (bound > 1) {
+        slam::TrackerParams bounded = q;
+        bounded.max_intensity_diff = params.max_intensity_diff;
+        EXPECT_GE(c.rgb[28], gpu_and_cpu(bounded).second.rgb[28]) << b;
       }
     }
 
