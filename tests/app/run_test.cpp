@@ -580,7 +580,7 @@ TEST(RunCommand, ObjectPhotometricSettingsAreReadAndChecked) {
   const Result bound = run_with_config(dir, "bound.json", R"({"lifecycle": {"object_max_intensity_diff": 0}})");
   EXPECT_NE(bound.exit_code, 0);
   EXPECT_THAT(bound.output, HasSubstr("object_max_intensity_diff: must be > 0")) << bound.output;
-  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.3}})",
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.5}})",
                                     "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
