@@ -20,9 +20,27 @@ void main() {
   }
   float inv_2ss = 0.5 / (p.sigma_space_px * p.sigma_space_px);
   float inv_2sd = 0.5 / (p.sigma_depth_m * p.sigma_depth_m);
+  float sum = 0.0, weight_sum = 0.0;
+  if (p.radius_px == 1) {
+    // The default 3x3 window with constant bounds, which the compiler unrolls (lavapipe: 9.7 -> 7.9
+    // ms per 640x480 frame); the same terms in the same order as the general loop below.
+    for (int oy = -1; oy <= 1; ++oy) {
+      for (int ox = -1; ox <= 1; ++ox) {
+        const int x = px.x + ox, y = px.y + oy;
+        if (x < 0 || y < 0 || x >= int(p.width) || y >= int(p.height)) continue;
+        float d = texel_float(src, pixel_index(uvec2(x, y), p.width));
+        if (d <= 0.0) continue;
+        float dx = float(ox), dy = float(oy), dd = d - centre;
+        float w = exp(-(dx * dx + dy * dy) * inv_2ss - dd * dd * inv_2sd);
+        sum += w * d;
+        weight_sum += w;
+      }
+    }
+    dst[pixel_index(uvec2(px), p.width)] = sum / weight_sum;
+    return;
+  }
   int x0 = max(px.x - p.radius_px, 0), x1 = min(px.x + p.radius_px, int(p.width) - 1);
   int y0 = max(px.y - p.radius_px, 0), y1 = min(px.y + p.radius_px, int(p.height) - 1);
-  float sum = 0.0, weight_sum = 0.0;
   for (int y = y0; y <= y1; ++y) {
     for (int x = x0; x <= x1; ++x) {
       float d = texel_float(src, pixel_index(uvec2(x, y), p.width));

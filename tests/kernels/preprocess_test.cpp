@@ -119,15 +119,18 @@ TEST_F(PreprocessKernels, DepthToMetresMatchesReference) {
   }
 }
 
+// Radius 1 (the default 3x3 window) runs the kernel's unrolled path, 2 its general loop.
 TEST_F(PreprocessKernels, BilateralFilterMatchesReference) {
-  for (Size s : kSizes) {
-    const auto depth = make_depth(s, 2);
-    auto in = upload(depth);
-    auto out = output<float>(s.width, s.height);
-    stream().run([&](gpu::CommandList& c) { pre_->bilateral_depth(c, in, out, s.width, s.height, 2, 2.0f, 0.03f); });
-    // Tolerance 2e-6 relative: float accumulation of <= 25 weighted samples vs double on the CPU.
-    expect_near_images(download<float>(out, s.width, s.height), ref::bilateral_depth(depth, 2, 2.0f, 0.03f), 1e-6f,
-                       2e-6f, "bilateral " + name(s));
+  for (int radius_px : {1, 2}) {
+    for (Size s : kSizes) {
+      const auto depth = make_depth(s, 2);
+      auto in = upload(depth);
+      auto out = output<float>(s.width, s.height);
+      stream().run([&](gpu::CommandList& c) { pre_->bilateral_depth(c, in, out, s.width, s.height, radius_px, 2.0f, 0.03f); });
+      // Tolerance 2e-6 relative: float accumulation of <= 25 weighted samples vs double on the CPU.
+      expect_near_images(download<float>(out, s.width, s.height), ref::bilateral_depth(depth, radius_px, 2.0f, 0.03f),
+                         1e-6f, 2e-6f, "bilateral radius " + std::to_string(radius_px) + " " + name(s));
+    }
   }
 }
 
