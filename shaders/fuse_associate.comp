@@ -35,6 +35,28 @@ bool depth_agrees_around(uvec2 px, float z_live) {
   }
   return false;
 }
+// The association's choice so far among a pixel's cells.
+struct Candidate {
+  uint best;
+  float best_confidence, best_ray_dist;
+  bool depth_agrees;
+};
+// Surfel si (0xFFFFFFFF: an empty cell) as a candidate for the live vertex v with normal n.
+void consider(uint si, vec4 v, vec3 n, vec3 ray, inout Candidate c) {
+  if (si == 0xFFFFFFFFu) return;
+  const vec4 pos_conf = surfel_position_confidence(surfels, si);
+  vec3 pc = rigid_apply(p.T_camera_model, pos_conf.xyz);
+  vec3 nc = rigid_rotate(p.T_camera_model, surfel_normal_radius(surfels, si).xyz);
+  if (abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005) return;
+  c.depth_agrees = true;
+  if (dot(nc, n) < p.min_normal_dot) return;
+  float ray_dist = length(cross(pc, ray));
+  if (ray_dist < c.best_ray_dist || (ray_dist == c.best_ray_dist && pos_conf.w > c.best_confidence)) {
+    c.best = si;
+    c.best_confidence = pos_conf.w;
+    c.best_ray_dist = ray_dist;
+  }
+}
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy + uvec2(p.rect_x0, p.rect_y0);
   if (px.x >= min(p.rect_x1, p.width) || px.y >= min(p.rect_y1, p.height)) return;
@@ -46,37 +68,33 @@ void main() {
   }
   vec3 ray = normalize(v.xyz);
   uint S = p.grid_scale, grid_width = p.width * S;
-  uint best = FUSE_NO_SURFEL;
-  float best_confidence = -1.0, best_ray_dist = 1e30;
-  bool depth_agrees = false;
+  Candidate c = Candidate(FUSE_NO_SURFEL, -1.0, 1e30, false);
   // One texel holds two neighbouring cells' keys: with an even grid scale each row of the block
   // is one fetch. Only a key's low word (the surfel index) is needed; an empty cell is all ones,
   // and no surfel has index 0xFFFFFFFF.
-  uint pair_texel = 0xFFFFFFFFu;
-  uvec4 pair = uvec4(0u);
-  for (uint sy = 0u; sy < S; ++sy) {
-    for (uint sx = 0u; sx < S; ++sx) {
-      const uint cell = (px.y * S + sy) * grid_width + px.x * S + sx;
-      if ((cell >> 1u) != pair_texel) {
-        pair_texel = cell >> 1u;
-        pair = texelFetch(index_map, int(pair_texel));
-      }
-      const uint si = (cell & 1u) == 0u ? pair.x : pair.z;
-      if (si == 0xFFFFFFFFu) continue;
-      const vec4 pos_conf = surfel_position_confidence(surfels, si);
-      vec3 pc = rigid_apply(p.T_camera_model, pos_conf.xyz);
-      vec3 nc = rigid_rotate(p.T_camera_model, surfel_normal_radius(surfels, si).xyz);
-      if (abs(pc.z - v.z) > p.max_depth_diff_rel * v.z + 0.005) continue;
-      depth_agrees = true;
-      if (dot(nc, n.xyz) < p.min_normal_dot) continue;
-      float ray_dist = length(cross(pc, ray));
-      if (ray_dist < best_ray_dist || (ray_dist == best_ray_dist && pos_conf.w > best_confidence)) {
-        best = si;
-        best_confidence = pos_conf.w;
-        best_ray_dist = ray_dist;
+  if (S == 2u) {
+    // The default grid scale with constant bounds, which the compiler unrolls.
+    for (uint sy = 0u; sy < 2u; ++sy) {
+      const uvec4 pair = texelFetch(index_map, int(((px.y * 2u + sy) * grid_width + px.x * 2u) >> 1u));
+      consider(pair.x, v, n.xyz, ray, c);
+      consider(pair.z, v, n.xyz, ray, c);
+    }
+  } else {
+    uint pair_texel = 0xFFFFFFFFu;
+    uvec4 pair = uvec4(0u);
+    for (uint sy = 0u; sy < S; ++sy) {
+      for (uint sx = 0u; sx < S; ++sx) {
+        const uint cell = (px.y * S + sy) * grid_width + px.x * S + sx;
+        if ((cell >> 1u) != pair_texel) {
+          pair_texel = cell >> 1u;
+          pair = texelFetch(index_map, int(pair_texel));
+        }
+        consider((cell & 1u) == 0u ? pair.x : pair.z, v, n.xyz, ray, c);
       }
     }
   }
+  uint best = c.best;
+  bool depth_agrees = c.depth_agrees;
   // A pixel on a known surface whose normal disagrees (sensor noise) neither updates it nor
   // spawns a duplicate; new surfels come only from surface not yet in the model, nor near a
   // surfel of it (a gap between known surfels is no new surface).

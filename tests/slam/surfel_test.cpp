@@ -293,19 +293,22 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
     auto surfels = make_surfels(s, k, 4, T_camera_model.inverse());
     const uint32_t capacity = uint32_t(surfels.size() + live.labels.size());
 
-    // Every pixel; the pixels labelled 1 or 3; those of them in a rectangle (a model's region).
-    for (int variant = 0; variant < 3; ++variant) {
+    // Every pixel; the pixels labelled 1 or 3; those of them in a rectangle (a model's region); each
+    // with the index map at 4 cells per pixel and at 2 (the default, the association's unrolled path).
+    for (int run = 0; run < 6; ++run) {
+      const int variant = run % 3;
+      const uint32_t scale = run < 3 ? 4u : 2u;
       const uint32_t use_labels = variant > 0 ? 1u : 0u;
       const PixelRect rect = variant == 2 ? PixelRect{s.width / 3, s.height / 5, s.width / 3 + (s.width + 1) / 2, s.height + 4}
                                           : PixelRect::full(s.width, s.height);
-      const std::string what = name(s) + (variant == 0 ? "" : variant == 1 ? " labelled" : " labelled, in a rectangle");
-      const auto sp = splat_params(k, T_camera_model, surfels.size(), 4);
+      const std::string what = name(s) + " scale " + std::to_string(scale) + (variant == 0 ? "" : variant == 1 ? " labelled" : " labelled, in a rectangle");
+      const auto sp = splat_params(k, T_camera_model, surfels.size(), scale);
       const auto grid = ref::splat(surfels, sp);
       L::FuseParams fp{};
       std::copy(sp.T_camera_model, sp.T_camera_model + 12, fp.T_camera_model);
       fp.fx = sp.fx, fp.fy = sp.fy, fp.cx = sp.cx, fp.cy = sp.cy;
       fp.width = uint32_t(s.width), fp.height = uint32_t(s.height);
-      fp.grid_scale = 4, fp.surfel_count = uint32_t(surfels.size()), fp.capacity = capacity, fp.frame = 101;
+      fp.grid_scale = scale, fp.surfel_count = uint32_t(surfels.size()), fp.capacity = capacity, fp.frame = 101;
       fp.max_depth_diff_rel = 0.03f, fp.min_normal_dot = std::cos(20.0f * float(M_PI) / 180.0f);
       fp.max_radius_growth = 1.5f, fp.label_mask = use_labels ? (1u << 1) | (1u << 3) : FUSE_ALL_LABELS;
       fp.new_surfel_clearance_cells = variant == 1 ? 0u : 1u;
