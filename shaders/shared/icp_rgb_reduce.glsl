@@ -82,6 +82,22 @@ float photometric_sqrt_weight(float r, vec2 g, int x, int y) {
 vec4 bilinear_weights(vec2 a) {
   return vec4((1.0 - a.x) * (1.0 - a.y), a.x * (1.0 - a.y), (1.0 - a.x) * a.y, a.x * a.y);
 }
+// A grid-stride walk over the rectangle's pixels in the order of the flat index ri (ri += stride)
+// that keeps ri's row and column instead of dividing by the rectangle's width at every step:
+// lavapipe has no vector integer division and divides lane by lane.
+struct RectWalk {
+  uint ri, row, col;
+};
+RectWalk rect_walk_start(uint ri) { return RectWalk(ri, ri / p.rect_width, ri % p.rect_width); }
+void rect_walk_step(inout RectWalk r, uint stride, uint stride_rows, uint stride_cols) {
+  r.ri += stride;
+  r.row += stride_rows;
+  r.col += stride_cols;
+  if (r.col >= p.rect_width) {
+    r.col -= p.rect_width;
+    r.row += 1u;
+  }
+}
 Term zero_term() {
   const vec4 z = vec4(0.0);
   return Term(z, z, z, z, z, z, z, z);
@@ -99,8 +115,10 @@ void main() {
   Term icp = zero_term(), rgb = zero_term();
 
   const uint stride = gl_NumWorkGroups.x * ICP_RGB_GROUP_SIZE;
-  for (uint ri = gl_GlobalInvocationID.x; ri < n; ri += stride) {
-    const uint i = (p.rect_y0 + ri / p.rect_width) * p.width + p.rect_x0 + ri % p.rect_width;  // live pixel
+  const uint stride_rows = stride / p.rect_width, stride_cols = stride % p.rect_width;
+  for (RectWalk rw = rect_walk_start(gl_GlobalInvocationID.x); rw.ri < n; rect_walk_step(rw, stride, stride_rows, stride_cols)) {
+    const uint live_x = p.rect_x0 + rw.col, live_y = p.rect_y0 + rw.row;
+    const uint i = live_y * p.width + live_x;  // live pixel
     const vec4 v_live = texel_vec4(live_vertex, i);
     if (v_live.w <= 0.0) continue;
     const vec4 n_live = texel_vec4(live_normal, i);
@@ -153,7 +171,7 @@ void main() {
             g = 0.5 * (g + p.live_intensity_gain * texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
 #ifdef ICP_RGB_REWEIGHTED
-          const float sw = photometric_sqrt_weight(r, g, int(i % p.width), int(i / p.width));
+          const float sw = photometric_sqrt_weight(r, g, int(live_x), int(live_y));
 #else
           const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
 #endif
@@ -170,14 +188,14 @@ void main() {
   if ((p.flags & ICP_RGB_FLAG_PHOTOMETRIC) != 0u && (p.flags & ICP_RGB_FLAG_OUTLINE) != 0u) {
     const mat3 Rt = transpose(R);
     const vec3 t_inv = -(Rt * t);
-    for (uint ri = gl_GlobalInvocationID.x; ri < n; ri += stride) {
-      const uint j = (p.rect_y0 + ri / p.rect_width) * p.width + p.rect_x0 + ri % p.rect_width;  // reference pixel
+    for (RectWalk rw = rect_walk_start(gl_GlobalInvocationID.x); rw.ri < n; rect_walk_step(rw, stride, stride_rows, stride_cols)) {
+      const int ju = int(p.rect_x0 + rw.col), jv = int(p.rect_y0 + rw.row);
+      const uint j = uint(jv) * p.width + uint(ju);  // reference pixel
       const vec4 v_ref = texel_vec4(ref_vertex, j);
       if (v_ref.w <= 0.0) continue;
       // The prediction's rim (a model pixel with a 4-neighbour the model does not cover) is left
       // out: splatted discs overhang the object's silhouette there, so the rim carries the
       // object's colour where the object is not, and pulled the model back (docs/experiments.md).
-      const int ju = int(j % p.width), jv = int(j / p.width);
       if (ju == 0 || jv == 0 || ju == w - 1 || jv == h - 1 || texel_vec4(ref_vertex, j - 1u).w <= 0.0 ||
           texel_vec4(ref_vertex, j + 1u).w <= 0.0 || texel_vec4(ref_vertex, j - p.width).w <= 0.0 ||
           texel_vec4(ref_vertex, j + p.width).w <= 0.0)
