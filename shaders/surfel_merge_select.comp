@@ -5,6 +5,7 @@
 #include "shared/host_device.h"
 #include "shared/rigid.glsl"
 #include "shared/texel_access.glsl"
+#include "shared/small_division.glsl"
 layout(local_size_x = 128) in;
 layout(binding = MERGE_BINDING_SURFELS) uniform usamplerBuffer surfels;  // texel view
 layout(binding = MERGE_BINDING_INDEX_MAP) uniform usamplerBuffer index_map;  // texel view of uint64 keys
@@ -16,7 +17,7 @@ layout(push_constant) uniform Push { MergeParams p; };
 
 // Whether this fusion covered cell (x, y) of the index map (see MergeParams).
 bool cell_fused(int x, int y) {
-  const uint px = uint(x) / p.grid_scale, py = uint(y) / p.grid_scale;
+  const uint px = small_quotient(uint(x), p.grid_scale), py = small_quotient(uint(y), p.grid_scale);
   if (px < p.rect_x0 || px >= min(p.rect_x1, p.width) || py < p.rect_y0 || py >= min(p.rect_y1, p.height)) return false;
   return p.use_labels == 0u || LABEL_IN_MASK(texel_uint(labels, py * p.width + px), p.label_mask);
 }

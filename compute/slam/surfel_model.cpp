@@ -288,6 +288,10 @@ void reset_counter(gpu::CommandList& cmd, const gpu::BufferPtr& counter, uint32_
 // Merge search over the fusion's index map, in the part of the image this fusion covered (the
 // index map's rows outside its rectangle are stale).
 L::MergeParams merge_params(const L::FuseParams& fp, unsigned surfel_count, const FusionParams& params) {
+  if (uint64_t{std::max(fp.width, fp.height)} * fp.grid_scale >= SMALL_QUOTIENT_LIMIT)
+    throw Error("merge search: an index map of " + std::to_string(fp.width * fp.grid_scale) + "x" +
+                std::to_string(fp.height * fp.grid_scale) + " cells is too large (at most " +
+                std::to_string(SMALL_QUOTIENT_LIMIT - 1) + " across)");
   L::MergeParams mp{};
   std::copy(fp.T_camera_model, fp.T_camera_model + 12, mp.T_camera_model);
   mp.fx = fp.fx, mp.fy = fp.fy, mp.cx = fp.cx, mp.cy = fp.cy;

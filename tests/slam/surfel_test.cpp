@@ -442,16 +442,18 @@ std::vector<Surfel> with_copies(std::vector<Surfel> surfels, unsigned seed) {
 
 // surfel_merge_select, surfel_merge_claim and the merging cleanup against their references, over
 // edge sizes (an empty model included), with and without labels and a rectangle, searching every
-// cell of the window or every second one.
+// cell of the window or every second one, with the index map at 2 cells per pixel (the default)
+// and at 3 (cells to pixels by a quotient that is not a shift: shared/small_division.glsl).
 TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
-  const Size sizes[] = {{37, 23}, {1, 1}, {37, 23}, {160, 120}, {640, 480}};
+  const Size sizes[] = {{37, 23}, {1, 1}, {37, 23}, {160, 120}, {640, 480}, {160, 120}};
   for (size_t case_index = 0; case_index < std::size(sizes); ++case_index) {
     const Size s = sizes[case_index];
+    const uint32_t scale = case_index == 2 || case_index == 5 ? 3u : 2u;
     const Intrinsics k = intrinsics_for(s);
     const auto T_camera_model = test_pose(0.002, {0.001, 0.0, -0.001});
     const auto surfels = case_index == 0 ? std::vector<Surfel>{} : with_copies(make_surfels(s, k, 6, T_camera_model.inverse()), 7);
     const uint32_t n = uint32_t(surfels.size());
-    auto sp = splat_params(k, T_camera_model, n, 2);
+    auto sp = splat_params(k, T_camera_model, n, scale);
     sp.min_confidence = 0.0f, sp.recent_window_frames = 0;  // as fusion splats
     const auto grid = ref::splat(surfels, sp);
     std::vector<uint32_t> labels(size_t(s.width) * s.height);
@@ -460,11 +462,11 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       const bool labelled = variant % 2 == 1;
       const uint32_t step = variant < 2 ? 1u : 2u;
       const std::string what = (case_index == 0 ? "empty model " : "") + name(s) + (labelled ? " labelled, in a rectangle" : "") +
-                               ", window step " + std::to_string(step);
+                               ", window step " + std::to_string(step) + ", scale " + std::to_string(scale);
       L::MergeParams mp{};
       std::copy(sp.T_camera_model, sp.T_camera_model + 12, mp.T_camera_model);
       mp.fx = sp.fx, mp.fy = sp.fy, mp.cx = sp.cx, mp.cy = sp.cy;
-      mp.width = uint32_t(s.width), mp.height = uint32_t(s.height), mp.grid_scale = 2, mp.surfel_count = n;
+      mp.width = uint32_t(s.width), mp.height = uint32_t(s.height), mp.grid_scale = scale, mp.surfel_count = n;
       const PixelRect rect = labelled ? PixelRect{s.width / 4, s.height / 3, s.width, (3 * s.height + 3) / 4}
                                       : PixelRect::full(s.width, s.height);
       mp.rect_x0 = uint32_t(rect.x0), mp.rect_y0 = uint32_t(rect.y0), mp.rect_x1 = uint32_t(rect.x1),

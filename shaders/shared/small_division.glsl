@@ -1,0 +1,12 @@
+// Unsigned integer quotients without an integer division instruction: lavapipe (x86 has no vector
+// integer division) divides lane by lane, even in a branch no lane takes.
+#ifndef COFUSION_SMALL_DIVISION_GLSL
+#define COFUSION_SMALL_DIVISION_GLSL
+
+// a / b (b > 0) through float, exact for a < SMALL_QUOTIENT_LIMIT (2^20, the caller's guarantee):
+// (a + 0.5) / b lies at least 0.5 / b from an integer, and the error of (a + 0.5) * (1 / b) in
+// float is at most about 3.6e-7 relative (Vulkan allows 2.5 ulp for the division, 0.5 for the
+// product), which stays below that while a * 3.6e-7 < 0.5.
+uint small_quotient(uint a, uint b) { return uint((float(a) + 0.5) * (1.0 / float(b))); }
+
+#endif
