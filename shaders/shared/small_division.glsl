@@ -1,5 +1,6 @@
 // Unsigned integer quotients without an integer division instruction: lavapipe (x86 has no vector
-// integer division) divides lane by lane, even in a branch no lane takes.
+// integer division) divides lane by lane, and runs both sides of a branch whose condition differs
+// between lanes (so a per-lane fallback to integer division costs as much as dividing).
 #ifndef COFUSION_SMALL_DIVISION_GLSL
 #define COFUSION_SMALL_DIVISION_GLSL
 
