@@ -25,8 +25,13 @@ void unwarp_colour(const uint8_t* rgb, const Intrinsics& K, const Eigen::Isometr
   const Eigen::AngleAxisd turn(camera_motion.rotation());
   const Eigen::Vector3d w = interval_s > 0 ? Eigen::Vector3d(turn.axis() * turn.angle() / interval_s) : Eigen::Vector3d::Zero();
   // Where each output pixel samples the input; a sample within half a pixel of the image takes its
-  // edge's colour, one farther out is black (a map entry far outside, with a black border).
-  cv::Mat map(height, width, CV_32FC2);
+  // edge's colour, one farther out is black (a map entry far outside, with a black border). The
+  // map (2.4 MB at 640x480) is kept for the calling thread's next frame: create() reuses it while
+  // the size stays. (The workers below reach it through this reference: a thread_local named in
+  // the lambda would be each worker's own.)
+  thread_local cv::Mat map_of_this_thread;
+  cv::Mat& map = map_of_this_thread;
+  map.create(height, width, CV_32FC2);
   tbb::parallel_for(0, height, [&](int v) {
     // The output pixel's ray in the middle row's camera, turned back into row v's camera (the
     // output's row stands for the source's: the rows differ by a few pixels at most). Along a row
