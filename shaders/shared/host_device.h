@@ -253,8 +253,9 @@ struct CleanupParams {
 #define MERGE_BINDING_COUNTER 4    // uint[4]: [0] surfel count after fusion's appends
 #define MERGE_BINDING_LABELS 5     // uint[] per live pixel (read when use_labels)
 #define MERGE_NONE 0xFFFFFFFFu
-// The index map's cells are mapped to pixels by shared/small_division.glsl, exact below this many
-// cells across (the host checks the map's width and height).
+// shared/small_division.glsl's quotients are exact for dividends below this: the merge search's
+// index-map cells (the host checks the map's width and height) and fusion's rectangle pixels
+// (shared/fuse_rect.glsl divides as integers at and above it).
 #define SMALL_QUOTIENT_LIMIT (1u << 20)
 struct MergeParams {
   float T_camera_model[12];   // pose of the index map's camera
