@@ -3,7 +3,8 @@
 // elements into the block's first destination, counter[counter_slot] + the counts of the blocks
 // before it, and adds the total to counter[counter_slot]. One workgroup: each invocation sums a
 // contiguous run of blocks, invocation 0 scans those sums, and each invocation writes its run's
-// destinations (thousands of blocks for millions of elements: a few microseconds).
+// destinations (thousands of blocks for millions of elements: a few microseconds). With a
+// count_slot, only the blocks that the GPU's count covers (CompactionScanParams).
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
 layout(local_size_x = COMPACTION_BLOCK) in;
@@ -13,8 +14,13 @@ layout(push_constant) uniform Push { CompactionScanParams p; };
 shared uint run_first[COMPACTION_BLOCK];
 void main() {
   const uint t = gl_LocalInvocationIndex;
-  const uint per_run = (p.block_count + COMPACTION_BLOCK - 1u) / COMPACTION_BLOCK;
-  const uint first = min(t * per_run, p.block_count), last = min(first + per_run, p.block_count);
+  uint block_count = p.block_count;
+  if (p.count_slot != COMPACTION_FIXED_COUNT) {
+    const uint n = counter[p.count_slot];  // the division first: n may be near 2^32
+    block_count = min(block_count, n / COMPACTION_BLOCK + uint(n % COMPACTION_BLOCK != 0u));
+  }
+  const uint per_run = (block_count + COMPACTION_BLOCK - 1u) / COMPACTION_BLOCK;
+  const uint first = min(t * per_run, block_count), last = min(first + per_run, block_count);
   uint sum = 0u;
   for (uint b = first; b < last; ++b) sum += blocks[b];
   run_first[t] = sum;

@@ -23,7 +23,7 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
   const size_t vk_size = (size_ + 15) / 16 * 16;
   const uint64_t texels = vk_size / 16;
   const bool texel_view = usage == BufferUsage::Device && texels > 0 && texels <= features.max_texel_buffer_elements;
-  if (usage == BufferUsage::Device) flags |= vk::BufferUsageFlagBits::eStorageBuffer;
+  if (usage == BufferUsage::Device) flags |= vk::BufferUsageFlagBits::eStorageBuffer | vk::BufferUsageFlagBits::eIndirectBuffer;
   if (texel_view) flags |= vk::BufferUsageFlagBits::eUniformTexelBuffer;
   if (bda) flags |= vk::BufferUsageFlagBits::eShaderDeviceAddress;
   buffer_ = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo{.size = vk_size, .usage = flags,

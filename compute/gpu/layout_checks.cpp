@@ -14,7 +14,8 @@ static_assert(sizeof(GradientParams) == 24 && offsetof(GradientParams, x0) == 8)
 static_assert(sizeof(TestFillParams) == 8);
 static_assert(sizeof(TestTexelParams) == 8);
 static_assert(sizeof(TestCompactionParams) == 8);
-static_assert(sizeof(CompactionScanParams) == 8);
+static_assert(sizeof(CompactionScanParams) == 16 && offsetof(CompactionScanParams, count_slot) == 8);
+static_assert(sizeof(IndirectGroupsParams) == 16 && offsetof(IndirectGroupsParams, group_size_b) == 12);
 static_assert(sizeof(SplatParams) == 100 && offsetof(SplatParams, fx) == 48 && offsetof(SplatParams, footprint_px) == 92 &&
               offsetof(SplatParams, offset_penalty_rel) == 96);
 static_assert(sizeof(ResolveParams) == 112 && offsetof(ResolveParams, width) == 64 && offsetof(ResolveParams, x0) == 80 &&

@@ -9,13 +9,35 @@ namespace cofusion::gpu {
 
 void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
                            uint32_t push_bytes, uint32_t groups_x, uint32_t groups_y, uint32_t groups_z) {
-  if (buffers.size() != pipeline.binding_count())
-    throw Error("dispatch of '" + pipeline.name() + "': " + std::to_string(buffers.size()) + " buffers for " +
+  check(pipeline, buffers.size(), push_bytes);
+  if (groups_x == 0 || groups_y == 0 || groups_z == 0) return;
+  bind(pipeline, buffers, push, push_bytes);
+  record_timed(pipeline, [&] { cmd_.dispatch(groups_x, groups_y, groups_z); });
+}
+
+void CommandList::dispatch_indirect(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers,
+                                    const void* push, uint32_t push_bytes, const BufferPtr& args, size_t offset) {
+  if (!args) throw Error("indirect dispatch of '" + pipeline.name() + "': null arguments buffer");
+  if (offset % 4 != 0 || offset + sizeof(VkDispatchIndirectCommand) > args->size())
+    throw Error("indirect dispatch of '" + pipeline.name() + "': arguments at byte " + std::to_string(offset) +
+                " are unaligned or outside '" + args->name() + "'");
+  bind(pipeline, buffers, push, push_bytes);
+  held_.push_back(args);
+  record_timed(pipeline, [&] { cmd_.dispatchIndirect(args->handle(), offset); });
+}
+
+void CommandList::check(const ComputePipeline& pipeline, size_t buffer_count, uint32_t push_bytes) {
+  if (buffer_count != pipeline.binding_count())
+    throw Error("dispatch of '" + pipeline.name() + "': " + std::to_string(buffer_count) + " buffers for " +
                 std::to_string(pipeline.binding_count()) + " bindings");
   if (push_bytes != pipeline.push_constant_bytes())
     throw Error("dispatch of '" + pipeline.name() + "': " + std::to_string(push_bytes) + " bytes of parameters, expected " +
                 std::to_string(pipeline.push_constant_bytes()));
-  if (groups_x == 0 || groups_y == 0 || groups_z == 0) return;
+}
+
+void CommandList::bind(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
+                       uint32_t push_bytes) {
+  check(pipeline, buffers.size(), push_bytes);
   std::vector<vk::DescriptorBufferInfo> infos;
   std::vector<vk::BufferView> views;
   infos.reserve(buffers.size());
@@ -43,8 +65,12 @@ void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_lis
   cmd_.pushDescriptorSetKHR(vk::PipelineBindPoint::eCompute, pipeline.layout(), 0, writes);
   if (push_bytes)
     cmd_.getDispatcher()->vkCmdPushConstants(*cmd_, pipeline.layout(), VK_SHADER_STAGE_COMPUTE_BIT, 0, push_bytes, push);
+}
+
+template <typename Dispatch>
+void CommandList::record_timed(const ComputePipeline& pipeline, Dispatch&& dispatch) {
   if (!timing_) {
-    cmd_.dispatch(groups_x, groups_y, groups_z);
+    dispatch();
     return;
   }
   const uint32_t query = 2 * static_cast<uint32_t>(timing_->names.size()) % Timing::kQueriesPerPool;
@@ -58,7 +84,7 @@ void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_lis
   // overlapping it), not the wait for earlier work to start.
   const vk::QueryPool pool = *timing_->pools.back();
   cmd_.writeTimestamp2(vk::PipelineStageFlagBits2::eAllCommands, pool, query);
-  cmd_.dispatch(groups_x, groups_y, groups_z);
+  dispatch();
   cmd_.writeTimestamp2(vk::PipelineStageFlagBits2::eAllCommands, pool, query + 1);
   timing_->names.push_back(timing_->label.empty() ? pipeline.name() : pipeline.name() + " " + timing_->label);
   timing_->groups.push_back(timing_->group);
@@ -80,6 +106,17 @@ void CommandList::barrier() {
                        .dstStageMask = S::eComputeShader | S::eTransfer,
                        .dstAccessMask = A::eShaderStorageRead | A::eShaderStorageWrite | A::eTransferRead |
                                         A::eTransferWrite};
+  cmd_.pipelineBarrier2(vk::DependencyInfo{.memoryBarrierCount = 1, .pMemoryBarriers = &b});
+}
+
+void CommandList::indirect_barrier() {
+  using S = vk::PipelineStageFlagBits2;
+  using A = vk::AccessFlagBits2;
+  vk::MemoryBarrier2 b{.srcStageMask = S::eComputeShader | S::eTransfer,
+                       .srcAccessMask = A::eShaderStorageWrite | A::eTransferWrite,
+                       .dstStageMask = S::eComputeShader | S::eTransfer | S::eDrawIndirect,
+                       .dstAccessMask = A::eShaderStorageRead | A::eShaderStorageWrite | A::eTransferRead |
+                                        A::eTransferWrite | A::eIndirectCommandRead};
   cmd_.pipelineBarrier2(vk::DependencyInfo{.memoryBarrierCount = 1, .pMemoryBarriers = &b});
 }
 

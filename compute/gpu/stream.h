@@ -45,8 +45,20 @@ class CommandList {
                 uint32_t groups_x, uint32_t groups_y = 1, uint32_t groups_z = 1) {
     dispatch(pipeline, buffers, &params, sizeof(Params), groups_x, groups_y, groups_z);
   }
+  // As dispatch(), with the workgroup counts read by the GPU from `args` at `offset` (a
+  // VkDispatchIndirectCommand written earlier in this list, then indirect_barrier()). Counts of 0
+  // dispatch nothing.
+  void dispatch_indirect(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
+                         uint32_t push_bytes, const BufferPtr& args, size_t offset);
+  template <typename Params>
+  void dispatch_indirect(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers,
+                         const Params& params, const BufferPtr& args, size_t offset) {
+    dispatch_indirect(pipeline, buffers, &params, sizeof(Params), args, offset);
+  }
   // Makes every earlier compute/transfer write visible to every later compute/transfer access.
   void barrier();
+  // barrier(), and also to the indirect dispatches' reads of their workgroup counts.
+  void indirect_barrier();
   void copy(const BufferPtr& src, const BufferPtr& dst, size_t bytes, size_t src_offset = 0, size_t dst_offset = 0);
   // Fills the whole buffer with a 32-bit pattern.
   void fill(const BufferPtr& dst, uint32_t value);
@@ -78,6 +90,14 @@ class CommandList {
     std::string label;
     std::string group;
   };
+  // Throws unless `pipeline` takes `buffer_count` buffers and `push_bytes` of constants.
+  static void check(const ComputePipeline& pipeline, size_t buffer_count, uint32_t push_bytes);
+  // Checks, binds `buffers` and pushes the constants of a dispatch of `pipeline`.
+  void bind(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
+            uint32_t push_bytes);
+  // Records `dispatch` (the vkCmdDispatch*), between two timestamps when the list is profiled.
+  template <typename Dispatch>
+  void record_timed(const ComputePipeline& pipeline, Dispatch&& dispatch);
   CommandList(vk::raii::CommandBuffer cmd, std::unique_ptr<Timing> timing)
       : cmd_(std::move(cmd)), timing_(std::move(timing)) {}
   vk::raii::CommandBuffer cmd_;

@@ -5,7 +5,9 @@
 // same kernels then write their kept elements there, in source order. CPU reference in
 // compaction_reference.h.
 //
-// Thread safety: holds only a pipeline; record() is const and may be called from several threads.
+// Thread safety: each class holds only a pipeline; record() is const and may be called from
+// several threads.
+#include <cstddef>
 #include <cstdint>
 
 #include "gpu/stream.h"
@@ -28,11 +30,32 @@ class CompactionScan {
   // `blocks` (uint per block, the counting pass's counts) becomes each block's first destination,
   // counter[counter_slot] plus the counts of the blocks before it; counter[counter_slot] grows by
   // the total. The caller places barriers before (the counts) and after (the destinations).
+  // With `count_slot` (not COMPACTION_FIXED_COUNT, not counter_slot), only the first
+  // block_count(min(counter[count_slot], block_count * COMPACTION_BLOCK)) blocks are scanned: those
+  // of a counting pass dispatched indirectly over that count (IndirectGroups).
   void record(gpu::CommandList& cmd, const gpu::BufferPtr& blocks, const gpu::BufferPtr& counter, uint32_t counter_slot,
-              uint32_t block_count) const;
+              uint32_t block_count, uint32_t count_slot = COMPACTION_FIXED_COUNT) const;
 
  private:
   gpu::ComputePipeline scan_;
+};
+
+// Records indirect_groups: the workgroup counts of two indirect dispatches over
+// n = min(counter[count_slot], bound) elements, written to `args` (IndirectGroups::kBytes; the
+// first record at byte 0, the second at kSecondOffset), followed by the barrier that lets later
+// dispatches read them. Kernels whose element count only the GPU knows (the model's count after
+// fusion's new surfels) then skip the workgroups past it, where a direct dispatch over the host's
+// bound runs them idle.
+class IndirectGroups {
+ public:
+  explicit IndirectGroups(gpu::Context& ctx);
+  static constexpr size_t kBytes = INDIRECT_GROUPS_WORDS * 4;
+  static constexpr size_t kSecondOffset = INDIRECT_GROUPS_B_WORD * 4;
+  void record(gpu::CommandList& cmd, const gpu::BufferPtr& counter, uint32_t count_slot, uint32_t bound,
+              uint32_t group_size_a, uint32_t group_size_b, const gpu::BufferPtr& args) const;
+
+ private:
+  gpu::ComputePipeline groups_;
 };
 
 }  // namespace cofusion::kernels

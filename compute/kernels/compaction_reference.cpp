@@ -1,5 +1,6 @@
 #include "kernels/compaction_reference.h"
 
+#include <algorithm>
 #include <cstddef>
 
 #include "shared/host_device.h"
@@ -20,6 +21,18 @@ uint32_t compaction_scan(std::vector<uint32_t>& blocks, uint32_t first) {
     next += count;
   }
   return next;
+}
+
+uint32_t counted_block_count(uint32_t count, uint32_t block_count) {
+  const uint64_t covering = (uint64_t(count) + COMPACTION_BLOCK - 1) / COMPACTION_BLOCK;
+  return uint32_t(std::min<uint64_t>(covering, block_count));
+}
+
+static_assert(INDIRECT_GROUPS_B_WORD == 3 && INDIRECT_GROUPS_WORDS == 6, "the records as indirect_groups() returns them");
+
+std::array<uint32_t, 6> indirect_groups(uint32_t count, uint32_t bound, uint32_t group_size_a, uint32_t group_size_b) {
+  const uint64_t n = std::min(count, bound);
+  return {uint32_t((n + group_size_a - 1) / group_size_a), 1u, 1u, uint32_t((n + group_size_b - 1) / group_size_b), 1u, 1u};
 }
 
 std::vector<uint32_t> compacted_indices(const std::vector<uint32_t>& keep) {

@@ -33,6 +33,7 @@ SurfelModel::SurfelModel(gpu::Context& ctx, int id, unsigned initial_capacity) :
   claim_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(uint32_t), name + " claims");
   merge_target_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(uint32_t), name + " merge targets");
   counter_ = gpu::Buffer::create(ctx, 4 * sizeof(uint32_t), name + " counter");
+  maintenance_groups_ = gpu::Buffer::create(ctx, kernels::IndirectGroups::kBytes, name + " maintenance groups");
 }
 
 void SurfelModel::reserve(gpu::Stream& stream, unsigned needed) {
@@ -176,6 +177,7 @@ SurfelPipelines::SurfelPipelines(gpu::Context& ctx, const kernels::Preprocessor&
                  (1u << SUBSAMPLE_BINDING_SRC_VERTEX) | (1u << SUBSAMPLE_BINDING_SRC_NORMAL) |
                      (1u << SUBSAMPLE_BINDING_SRC_INTENSITY)),
       scan_(ctx),
+      groups_(ctx),
       associate_(ctx, "fuse_associate", shaders::fuse_associate_comp(), 9, sizeof(L::FuseParams),
                  (1u << FUSE_BINDING_SURFELS) | (1u << FUSE_BINDING_INDEX_MAP) | (1u << FUSE_BINDING_VERTEX) |
                      (1u << FUSE_BINDING_NORMAL) | (1u << FUSE_BINDING_LABELS)),
@@ -394,36 +396,53 @@ void SurfelPipelines::update(gpu::CommandList& cmd, const FuseBuffers& b, const 
   cmd.dispatch(update_, buffers, p, blocks);
 }
 
-void SurfelPipelines::merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p) const {
-  cmd.dispatch(merge_select_, {b.surfels, b.index_map, b.target, b.claim, b.counter, b.labels}, p,
-               group_count(p.surfel_count, 128));
+// merge_select and merge_claim run 128 surfels per workgroup (their local_size_x), cleanup and
+// its compaction COMPACTION_BLOCK: the first and second of the maintenance groups.
+constexpr uint32_t kMergeGroupSize = 128;
+constexpr size_t kMergeGroupsOffset = 0, kCleanupGroupsOffset = kernels::IndirectGroups::kSecondOffset;
+
+void SurfelPipelines::maintenance_groups(gpu::CommandList& cmd, const gpu::BufferPtr& counter, uint32_t bound,
+                                         const gpu::BufferPtr& groups) const {
+  groups_.record(cmd, counter, 0, bound, kMergeGroupSize, COMPACTION_BLOCK, groups);
 }
 
-void SurfelPipelines::merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p) const {
-  cmd.dispatch(merge_claim_, {b.surfels, b.index_map, b.target, b.claim, b.counter, b.labels}, p,
-               group_count(p.surfel_count, 128));
+void SurfelPipelines::merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p,
+                                   const gpu::BufferPtr& groups) const {
+  cmd.dispatch_indirect(merge_select_, {b.surfels, b.index_map, b.target, b.claim, b.counter, b.labels}, p, groups,
+                        kMergeGroupsOffset);
+}
+
+void SurfelPipelines::merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p,
+                                  const gpu::BufferPtr& groups) const {
+  cmd.dispatch_indirect(merge_claim_, {b.surfels, b.index_map, b.target, b.claim, b.counter, b.labels}, p, groups,
+                        kMergeGroupsOffset);
 }
 
 void SurfelPipelines::compact_kept(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                                    const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
-                                   const gpu::BufferPtr& keep_mask, uint32_t block_count) const {
+                                   const gpu::BufferPtr& keep_mask, uint32_t block_count,
+                                   const gpu::BufferPtr& groups) const {
   cmd.barrier();
-  scan_.record(cmd, blocks, counter, 1, block_count);
+  scan_.record(cmd, blocks, counter, 1, block_count, groups ? 0u : COMPACTION_FIXED_COUNT);
   cmd.barrier();
   const void* no_params = nullptr;  // surfel_compact has no push constants
-  cmd.dispatch(compact_, {src, dst, blocks, keep_mask}, no_params, 0, block_count);
+  if (groups)
+    cmd.dispatch_indirect(compact_, {src, dst, blocks, keep_mask}, no_params, 0, groups, kCleanupGroupsOffset);
+  else
+    cmd.dispatch(compact_, {src, dst, blocks, keep_mask}, no_params, 0, block_count);
 }
 
 void SurfelPipelines::cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& scratch,
                               const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
-                              const gpu::BufferPtr& keep_mask, const L::CleanupParams& p,
+                              const gpu::BufferPtr& keep_mask, const L::CleanupParams& p, const gpu::BufferPtr& groups,
                               const gpu::BufferPtr& merge_target, const gpu::BufferPtr& merge_claim) const {
   const uint32_t block_count = kernels::CompactionScan::block_count(p.surfel_count);
   if (block_count == 0) return;
   const gpu::BufferPtr& target = merge_target ? merge_target : surfels;  // not read without p.merge
   const gpu::BufferPtr& claim = merge_claim ? merge_claim : surfels;
-  cmd.dispatch(cleanup_, {surfels, scratch, depth_m, counter, target, claim, blocks, keep_mask}, p, block_count);
-  compact_kept(cmd, scratch, surfels, counter, blocks, keep_mask, block_count);
+  cmd.dispatch_indirect(cleanup_, {surfels, scratch, depth_m, counter, target, claim, blocks, keep_mask}, p, groups,
+                        kCleanupGroupsOffset);
+  compact_kept(cmd, scratch, surfels, counter, blocks, keep_mask, block_count, groups);
 }
 
 void SurfelPipelines::remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
@@ -492,15 +511,17 @@ FusionStats SurfelPipelines::fuse(gpu::Stream& stream, SurfelModel& model, const
     cmd.barrier();
     update(cmd, b, fp);
     cmd.barrier();
+    const gpu::BufferPtr& groups = model.maintenance_groups_;
+    maintenance_groups(cmd, model.counter_, most_surfels, groups);
     if (merge) {
       const MergeBuffers mb{model.surfels_, index_map, model.merge_target_, model.claim_, model.counter_, label_buffer};
-      cmd.fill(model.claim_, 0xFFFFFFFFu, 0, size_t(most_surfels) * 4);
-      merge_select(cmd, mb, mp);
+      cmd.fill(model.claim_, 0xFFFFFFFFu, 0, size_t(most_surfels) * 4);  // merge_claim's, after a barrier
+      merge_select(cmd, mb, mp, groups);
       cmd.barrier();
-      merge_claim(cmd, mb, mp);
+      merge_claim(cmd, mb, mp, groups);
       cmd.barrier();
     }
-    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, blocks, keep_mask, cp,
+    cleanup(cmd, model.surfels_, model.scratch_, l0.depth_m, model.counter_, blocks, keep_mask, cp, groups,
             model.merge_target_, model.claim_);
     counter = static_cast<const uint32_t*>(stream.record_download(cmd, model.counter_, 4 * sizeof(uint32_t)));
   });

@@ -81,6 +81,8 @@ class SurfelModel {
   gpu::BufferPtr claim_;    // uint[capacity]: fusion's per-surfel claims, then the merge claims
   gpu::BufferPtr merge_target_;  // uint[capacity]: the surfel each surfel merges into
   gpu::BufferPtr counter_;  // uint[4]
+  // The maintenance passes' workgroup counts (IndirectGroups): merge search and claims, cleanup.
+  gpu::BufferPtr maintenance_groups_;
   // Per-fusion scratch, owned here (not by SurfelPipelines) so that different models can be fused
   // concurrently; allocated on the first fusion, for the live image size.
   gpu::BufferPtr index_map_;  // uint64 per cell of the supersampled index map
@@ -172,8 +174,18 @@ class SurfelPipelines {
   struct MergeBuffers {
     gpu::BufferPtr surfels, index_map, target, claim, counter, labels;  // labels: any buffer without use_labels
   };
-  void merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
-  void merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p) const;
+  // The maintenance passes after fusion (merge search, claims, cleanup) run over the model's
+  // surfels including fusion's new ones, min(counter[0], bound), a count only the GPU knows:
+  // maintenance_groups() records their workgroup counts for it into `groups`
+  // (kernels::IndirectGroups::kBytes), and they are dispatched indirectly from there, so that no
+  // workgroup runs past the count (the host's bound, one new surfel per fused pixel, is mostly
+  // idle). `bound` is the passes' p.surfel_count.
+  void maintenance_groups(gpu::CommandList& cmd, const gpu::BufferPtr& counter, uint32_t bound,
+                          const gpu::BufferPtr& groups) const;
+  void merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p,
+                    const gpu::BufferPtr& groups) const;
+  void merge_claim(gpu::CommandList& cmd, const MergeBuffers& b, const gpu_layout::MergeParams& p,
+                   const gpu::BufferPtr& groups) const;
   // cleanup and remove_region: the deciding (counting) pass, compaction_scan and surfel_compact,
   // which copies the kept surfels, in their order, from counter[1] on (the caller sets it, usually
   // to 0). `blocks`: CompactionScan::blocks_bytes(p.surfel_count); `keep_mask`:
@@ -181,10 +193,11 @@ class SurfelPipelines {
   // cleanup decides each surfel of `surfels` once, writes the kept ones as they stay (merged,
   // penalised) to `scratch` at their own index, and compacts them from there back into `surfels`.
   // With p.merge, `merge_target` and `merge_claim` are merge_select's and merge_claim's results;
-  // without, they are not read (null binds `surfels` in their place).
+  // without, they are not read (null binds `surfels` in their place). Its workgroups come from
+  // `groups` (maintenance_groups()).
   void cleanup(gpu::CommandList& cmd, const gpu::BufferPtr& surfels, const gpu::BufferPtr& scratch,
                const gpu::BufferPtr& depth_m, const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks,
-               const gpu::BufferPtr& keep_mask, const gpu_layout::CleanupParams& p,
+               const gpu::BufferPtr& keep_mask, const gpu_layout::CleanupParams& p, const gpu::BufferPtr& groups,
                const gpu::BufferPtr& merge_target = nullptr, const gpu::BufferPtr& merge_claim = nullptr) const;
   // remove_region copies the kept surfels of `src` (unchanged) to `dst`.
   void remove_region(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
@@ -194,16 +207,18 @@ class SurfelPipelines {
 
  private:
   // After a counting pass over `block_count` blocks: compaction_scan into counter[1], then
-  // surfel_compact copies the kept surfels from src to dst.
+  // surfel_compact copies the kept surfels from src to dst. With `groups` (maintenance_groups()),
+  // the counting pass ran over the blocks of counter[0]'s surfels only, and so do both.
   void compact_kept(gpu::CommandList& cmd, const gpu::BufferPtr& src, const gpu::BufferPtr& dst,
                     const gpu::BufferPtr& counter, const gpu::BufferPtr& blocks, const gpu::BufferPtr& keep_mask,
-                    uint32_t block_count) const;
+                    uint32_t block_count, const gpu::BufferPtr& groups = nullptr) const;
 
   const kernels::Preprocessor& preprocessor_;
   gpu::ComputePipeline splat_;
   gpu::ComputePipeline resolve_;
   gpu::ComputePipeline subsample_;
   kernels::CompactionScan scan_;
+  kernels::IndirectGroups groups_;
   gpu::ComputePipeline associate_;
   gpu::ComputePipeline count_new_;
   gpu::ComputePipeline update_;

@@ -93,9 +93,31 @@ struct GradientParams {
 #define COMPACTION_SCAN_BINDING_BLOCKS 0   // uint[block_count]: counts in, first destinations out
 #define COMPACTION_SCAN_BINDING_COUNTER 1  // uint[]: counter[counter_slot] is the first destination of
                                            // block 0 in, the destination after the last kept element out
+#define COMPACTION_FIXED_COUNT 0xFFFFFFFFu  // count_slot: scan all block_count blocks
 struct CompactionScanParams {
-  uint block_count;
+  uint block_count;  // blocks at most
   uint counter_slot;
+  // COMPACTION_FIXED_COUNT, or the counter slot that holds the counting pass's number of elements
+  // (known only to the GPU): then only the blocks covering min(that count, block_count *
+  // COMPACTION_BLOCK) elements are scanned, as an indirect counting pass wrote no others.
+  uint count_slot;
+  uint pad;
+};
+
+// ---- indirect_groups.comp: workgroup counts for a count that only the GPU knows --------------
+// One invocation reads n = min(counter[count_slot], bound) and writes two VkDispatchIndirectCommand
+// records: (ceil(n / group_size_a), 1, 1) at word 0 and (ceil(n / group_size_b), 1, 1) at word
+// INDIRECT_GROUPS_B_WORD, for kernels dispatched over n elements (fusion's maintenance passes:
+// the model's count with fusion's new surfels, of which the host knows only a bound).
+#define INDIRECT_GROUPS_BINDING_COUNTER 0  // uint[]
+#define INDIRECT_GROUPS_BINDING_ARGS 1     // uint[INDIRECT_GROUPS_WORDS]
+#define INDIRECT_GROUPS_B_WORD 3
+#define INDIRECT_GROUPS_WORDS 6
+struct IndirectGroupsParams {
+  uint count_slot;
+  uint bound;         // elements at most (the host's bound on the count)
+  uint group_size_a;  // elements per workgroup of the first record, > 0
+  uint group_size_b;  // elements per workgroup of the second record, > 0
 };
 
 // ---- surfel models ---------------------------------------------------------------------------

@@ -2,12 +2,14 @@
 // shared/compaction.glsl through test_compaction.comp, and compaction_scan) against its CPU
 // reference, bit-exact (integer work), over edge sizes: nothing, one element, a block less one,
 // one block, a block and one, several thousand blocks (more blocks than the scan's invocations),
-// with every element kept, none, and random ones.
+// with every element kept, none, and random ones; the scan of a count only the GPU knows and the
+// workgroup counts of indirect dispatches over it (indirect_groups).
 #include <gtest/gtest.h>
 
 #include <random>
 #include <string>
 
+#include "common/error.h"
 #include "embedded_shaders.h"
 #include "kernels/compaction.h"
 #include "kernels/compaction_reference.h"
@@ -105,6 +107,78 @@ TEST_F(Compaction, ScanOfManyBlocksMatchesReference) {
     EXPECT_EQ(stream().download<uint32_t>(block_buffer, blocks), expected) << blocks << " blocks";
     EXPECT_EQ(stream().download<uint32_t>(counter, 1)[0], end) << blocks << " blocks";
   }
+}
+
+// The scan with a count only the GPU knows (count_slot): it scans the blocks that cover that
+// count, never more than block_count, and leaves the blocks past them (garbage here) as they are.
+TEST_F(Compaction, ScanOfTheGpusCountMatchesReference) {
+  const uint32_t most_blocks = 300;  // more than the scan's invocations
+  const uint32_t counts[] = {0, 1, COMPACTION_BLOCK - 1, COMPACTION_BLOCK, COMPACTION_BLOCK + 1,
+                             77 * COMPACTION_BLOCK + 3, most_blocks * COMPACTION_BLOCK - 1, most_blocks * COMPACTION_BLOCK,
+                             most_blocks * COMPACTION_BLOCK + 1, 0xFFFFFFFFu};
+  for (uint32_t count : counts) {
+    std::mt19937 rng(count);
+    std::vector<uint32_t> blocks(most_blocks);
+    const uint32_t scanned = ref::counted_block_count(count, most_blocks);
+    for (uint32_t b = 0; b < most_blocks; ++b) blocks[b] = b < scanned ? rng() % (COMPACTION_BLOCK + 1) : 0x7777u;
+    auto block_buffer = upload(blocks, "blocks");
+    auto counter = upload(std::vector<uint32_t>{count, 40, 0, 0}, "counter");
+    stream().run([&](gpu::CommandList& c) { scan_->record(c, block_buffer, counter, 1, most_blocks, 0); });
+    std::vector<uint32_t> expected(blocks.begin(), blocks.begin() + scanned);
+    const uint32_t end = ref::compaction_scan(expected, 40);
+    expected.insert(expected.end(), blocks.begin() + scanned, blocks.end());
+    EXPECT_EQ(stream().download<uint32_t>(block_buffer, most_blocks), expected) << "count " << count;
+    EXPECT_EQ(stream().download<uint32_t>(counter, 2), (std::vector<uint32_t>{count, end})) << "count " << count;
+  }
+  auto counter = upload(std::vector<uint32_t>{1, 0, 0, 0}, "counter");
+  auto block_buffer = upload(std::vector<uint32_t>{1}, "blocks");
+  EXPECT_THROW(stream().run([&](gpu::CommandList& c) { scan_->record(c, block_buffer, counter, 0, 1, 0); }), Error)
+      << "a count slot that is also the destination";
+}
+
+// indirect_groups against its reference, over counts at the edges of both group sizes, the
+// bound and 2^32, and the indirect dispatches it feeds: test_compaction's counting pass over the
+// GPU's count writes exactly the blocks that cover it.
+TEST_F(Compaction, IndirectGroupsMatchReferenceAndDispatch) {
+  const kernels::IndirectGroups groups(ctx());
+  const uint32_t bound = 5000;
+  const uint32_t counts[] = {0, 1, 127, 128, 129, COMPACTION_BLOCK, COMPACTION_BLOCK + 1, bound - 1, bound, bound + 1,
+                             0xFFFFFFFEu, 0xFFFFFFFFu};
+  for (uint32_t group_b : {uint32_t(COMPACTION_BLOCK), 1u, 7u})
+    for (uint32_t count : counts) {
+      const std::string what = "count " + std::to_string(count) + ", groups of 128 and " + std::to_string(group_b);
+      auto counter = upload(std::vector<uint32_t>{9, count, 0, 0}, "counter");
+      auto args = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "args");
+      stream().run([&](gpu::CommandList& c) { groups.record(c, counter, 1, bound, 128, group_b, args); });
+      const auto expected = ref::indirect_groups(count, bound, 128, group_b);
+      EXPECT_EQ(stream().download<uint32_t>(args, 6), std::vector<uint32_t>(expected.begin(), expected.end())) << what;
+      if (group_b != COMPACTION_BLOCK) continue;
+
+      // The counting pass dispatched from the second record over a flag buffer of `bound` elements.
+      const auto flags = make_flags(bound, Keep::kAll, count);
+      auto flag_buffer = upload(flags, "flags");
+      const uint32_t most_blocks = kernels::CompactionScan::block_count(bound);
+      auto block_buffer = upload(std::vector<uint32_t>(most_blocks, 0x7777u), "blocks");
+      auto out = gpu::Buffer::create(ctx(), 4, "out");
+      const L::TestCompactionParams p{bound, COMPACTION_PASS_COUNT};
+      stream().run([&](gpu::CommandList& c) {
+        c.dispatch_indirect(*compact_, {flag_buffer, block_buffer, out}, p, args, kernels::IndirectGroups::kSecondOffset);
+      });
+      const auto gpu_blocks = stream().download<uint32_t>(block_buffer, most_blocks);
+      const auto all_counts = ref::compaction_block_counts(flags);
+      for (uint32_t b = 0; b < most_blocks; ++b)
+        EXPECT_EQ(gpu_blocks[b], b < expected[3] ? all_counts[b] : 0x7777u) << "block " << b << ", " << what;
+    }
+  EXPECT_EQ(ref::indirect_groups(0xFFFFFFFFu, 0xFFFFFFFFu, 1, 128)[3], 0x2000000u) << "the reference near 2^32";
+  auto args = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes - 4, "short args");
+  auto counter = upload(std::vector<uint32_t>{1, 0, 0, 0}, "counter");
+  EXPECT_THROW(stream().run([&](gpu::CommandList& c) { groups.record(c, counter, 0, 1, 128, 256, args); }), Error);
+  EXPECT_THROW(stream().run([&](gpu::CommandList& c) {
+                 const L::TestCompactionParams p{1, COMPACTION_PASS_COUNT};
+                 c.dispatch_indirect(*compact_, {counter, counter, counter}, p, counter, 8);
+               }),
+               Error)
+      << "arguments past the buffer's end";
 }
 
 }  // namespace

@@ -395,8 +395,15 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       auto depth_buffer = upload(pushed.pixels);
       auto blocks = gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(cp.surfel_count), "blocks");
       auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(cp.surfel_count), "keep mask");
+      // The cleanup runs over counter[0]'s surfels, not its bound (cp.surfel_count, the capacity):
+      // blocks past them hold garbage that neither its scan nor its copy may read.
+      auto groups = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "maintenance groups");
       stream().run([&](gpu::CommandList& c) {
-        pipes_->cleanup(c, gpu_model, scratch, depth_buffer, counter, blocks, keep_mask, cp);
+        c.fill(blocks, 0x7777u);
+        c.fill(keep_mask, 0xFFFFFFFFu);
+        c.barrier();
+        pipes_->maintenance_groups(c, counter, cp.surfel_count, groups);
+        pipes_->cleanup(c, gpu_model, scratch, depth_buffer, counter, blocks, keep_mask, cp, groups);
       });
       auto cpu_kept = ref::cleanup(cpu_surfels, pushed, cp);
       const uint32_t kept = download<uint32_t>(counter, 2)[1];
@@ -466,7 +473,10 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       L::MergeParams mp{};
       std::copy(sp.T_camera_model, sp.T_camera_model + 12, mp.T_camera_model);
       mp.fx = sp.fx, mp.fy = sp.fy, mp.cx = sp.cx, mp.cy = sp.cy;
-      mp.width = uint32_t(s.width), mp.height = uint32_t(s.height), mp.grid_scale = scale, mp.surfel_count = n;
+      // The passes' bound lies past the model's count (counter[0]), as fusion's does: they run over
+      // the count (maintenance_groups), and what lies past it is never read.
+      const uint32_t bound = n + 2 * COMPACTION_BLOCK + 5;
+      mp.width = uint32_t(s.width), mp.height = uint32_t(s.height), mp.grid_scale = scale, mp.surfel_count = bound;
       const PixelRect rect = labelled ? PixelRect{s.width / 4, s.height / 3, s.width, (3 * s.height + 3) / 4}
                                       : PixelRect::full(s.width, s.height);
       mp.rect_x0 = uint32_t(rect.x0), mp.rect_y0 = uint32_t(rect.y0), mp.rect_x1 = uint32_t(rect.x1),
@@ -481,7 +491,11 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
                                             gpu::Buffer::create(ctx(), slots * 4, "claim"),
                                             upload(std::vector<uint32_t>{n, 0, 0, 0}),
                                             upload(labels, "labels")};
-      stream().run([&](gpu::CommandList& c) { pipes_->merge_select(c, b, mp); });
+      auto groups = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "maintenance groups");
+      stream().run([&](gpu::CommandList& c) {
+        pipes_->maintenance_groups(c, b.counter, bound, groups);
+        pipes_->merge_select(c, b, mp, groups);
+      });
       const auto cpu_target = ref::merge_select(surfels, grid, labels, mp);
       const auto gpu_target = download<uint32_t>(b.target, n);
       size_t differ = 0, merging = 0;
@@ -500,7 +514,7 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       stream().run([&](gpu::CommandList& c) {
         c.fill(b.claim, MERGE_NONE);
         c.barrier();
-        pipes_->merge_claim(c, b, mp);
+        pipes_->merge_claim(c, b, mp, groups);
       });
       const auto cpu_claim = ref::merge_claim(cpu_target);
       EXPECT_EQ(download<uint32_t>(b.claim, n), cpu_claim) << what;
@@ -510,16 +524,20 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
       L::CleanupParams cp{};
       std::copy(sp.T_camera_model, sp.T_camera_model + 12, cp.T_camera_model);
       cp.fx = sp.fx, cp.fy = sp.fy, cp.cx = sp.cx, cp.cy = sp.cy, cp.width = mp.width, cp.height = mp.height;
-      cp.surfel_count = n, cp.frame = 110, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
+      cp.surfel_count = bound, cp.frame = 110, cp.stable_confidence = 6, cp.unstable_window_frames = 40;
       cp.free_space_margin_rel = 0.05f, cp.free_space_penalty = 1.0f, cp.merge = 1;
       const Image<float> no_depth(s.width, s.height);
       auto scratch = gpu::Buffer::create(ctx(), slots * sizeof(Surfel), "cleanup scratch");
       auto counter = upload(std::vector<uint32_t>{n, 0, 0, 0});
       auto depth_buffer = upload(no_depth.pixels);
-      auto blocks = gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(n), "blocks");
-      auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(n), "keep mask");
+      auto blocks = gpu::Buffer::create(ctx(), kernels::CompactionScan::blocks_bytes(bound), "blocks");
+      auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(bound), "keep mask");
       stream().run([&](gpu::CommandList& c) {
-        pipes_->cleanup(c, b.surfels, scratch, depth_buffer, counter, blocks, keep_mask, cp, b.target, b.claim);
+        c.fill(blocks, 0x7777u);  // garbage past the count's blocks
+        c.fill(keep_mask, 0xFFFFFFFFu);
+        c.barrier();
+        pipes_->maintenance_groups(c, counter, bound, groups);
+        pipes_->cleanup(c, b.surfels, scratch, depth_buffer, counter, blocks, keep_mask, cp, groups, b.target, b.claim);
       });
       auto cpu_kept = ref::cleanup(surfels, no_depth, cp, ref::Merges{cpu_target, cpu_claim});
       const uint32_t kept = download<uint32_t>(counter, 2)[1];
