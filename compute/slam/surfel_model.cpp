@@ -399,11 +399,12 @@ void SurfelPipelines::update(gpu::CommandList& cmd, const FuseBuffers& b, const 
 // merge_select and merge_claim run 128 surfels per workgroup (their local_size_x), cleanup and
 // its compaction COMPACTION_BLOCK: the first and second of the maintenance groups.
 constexpr uint32_t kMergeGroupSize = 128;
+constexpr uint32_t kFusedCountSlot = 0;  // counter[0]: the model's count after fusion's new surfels
 constexpr size_t kMergeGroupsOffset = 0, kCleanupGroupsOffset = kernels::IndirectGroups::kSecondOffset;
 
 void SurfelPipelines::maintenance_groups(gpu::CommandList& cmd, const gpu::BufferPtr& counter, uint32_t bound,
                                          const gpu::BufferPtr& groups) const {
-  groups_.record(cmd, counter, 0, bound, kMergeGroupSize, COMPACTION_BLOCK, groups);
+  groups_.record(cmd, counter, kFusedCountSlot, bound, kMergeGroupSize, COMPACTION_BLOCK, groups);
 }
 
 void SurfelPipelines::merge_select(gpu::CommandList& cmd, const MergeBuffers& b, const L::MergeParams& p,
@@ -423,7 +424,7 @@ void SurfelPipelines::compact_kept(gpu::CommandList& cmd, const gpu::BufferPtr& 
                                    const gpu::BufferPtr& keep_mask, uint32_t block_count,
                                    const gpu::BufferPtr& groups) const {
   cmd.barrier();
-  scan_.record(cmd, blocks, counter, 1, block_count, groups ? 0u : COMPACTION_FIXED_COUNT);
+  scan_.record(cmd, blocks, counter, 1, block_count, groups ? kFusedCountSlot : COMPACTION_FIXED_COUNT);
   cmd.barrier();
   const void* no_params = nullptr;  // surfel_compact has no push constants
   if (groups)
