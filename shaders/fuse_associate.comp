@@ -74,11 +74,14 @@ void main() {
   // and no surfel has index 0xFFFFFFFF.
   if (S == 2u) {
     // The default grid scale with constant bounds, which the compiler unrolls.
-    for (uint sy = 0u; sy < 2u; ++sy) {
-      const uvec4 pair = texelFetch(index_map, int(((px.y * 2u + sy) * grid_width + px.x * 2u) >> 1u));
-      consider(pair.x, v, n.xyz, ray, c);
-      consider(pair.z, v, n.xyz, ray, c);
-    }
+    // A surfel mostly holds several cells of the block: each is considered once (considering one
+    // again changes nothing, as it neither beats nor ties itself better).
+    const uvec4 row0 = texelFetch(index_map, int(((px.y * 2u) * grid_width + px.x * 2u) >> 1u));
+    const uvec4 row1 = texelFetch(index_map, int(((px.y * 2u + 1u) * grid_width + px.x * 2u) >> 1u));
+    consider(row0.x, v, n.xyz, ray, c);
+    if (row0.z != row0.x) consider(row0.z, v, n.xyz, ray, c);
+    if (row1.x != row0.x && row1.x != row0.z) consider(row1.x, v, n.xyz, ray, c);
+    if (row1.z != row0.x && row1.z != row0.z && row1.z != row1.x) consider(row1.z, v, n.xyz, ray, c);
   } else {
     uint pair_texel = 0xFFFFFFFFu;
     uvec4 pair = uvec4(0u);
