@@ -7,6 +7,7 @@
 // count_slot, only the blocks that the GPU's count covers (CompactionScanParams).
 #extension GL_GOOGLE_include_directive : require
 #include "shared/host_device.h"
+#include "shared/small_division.glsl"
 layout(local_size_x = COMPACTION_BLOCK) in;
 layout(std430, binding = COMPACTION_SCAN_BINDING_BLOCKS) buffer Blocks { uint blocks[]; };
 layout(std430, binding = COMPACTION_SCAN_BINDING_COUNTER) buffer Counter { uint counter[]; };
@@ -16,8 +17,7 @@ void main() {
   const uint t = gl_LocalInvocationIndex;
   uint block_count = p.block_count;
   if (p.count_slot != COMPACTION_FIXED_COUNT) {
-    const uint n = counter[p.count_slot];  // the division first: n may be near 2^32
-    block_count = min(block_count, n / COMPACTION_BLOCK + uint(n % COMPACTION_BLOCK != 0u));
+    block_count = min(block_count, ceil_quotient(counter[p.count_slot], COMPACTION_BLOCK));
   }
   const uint per_run = (block_count + COMPACTION_BLOCK - 1u) / COMPACTION_BLOCK;
   const uint first = min(t * per_run, block_count), last = min(first + per_run, block_count);

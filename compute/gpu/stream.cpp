@@ -21,6 +21,7 @@ void CommandList::dispatch_indirect(const ComputePipeline& pipeline, std::initia
   if (offset % 4 != 0 || offset + sizeof(VkDispatchIndirectCommand) > args->size())
     throw Error("indirect dispatch of '" + pipeline.name() + "': arguments at byte " + std::to_string(offset) +
                 " are unaligned or outside '" + args->name() + "'");
+  check(pipeline, buffers.size(), push_bytes);
   bind(pipeline, buffers, push, push_bytes);
   held_.push_back(args);
   record_timed(pipeline, [&] { cmd_.dispatchIndirect(args->handle(), offset); });
@@ -37,7 +38,6 @@ void CommandList::check(const ComputePipeline& pipeline, size_t buffer_count, ui
 
 void CommandList::bind(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
                        uint32_t push_bytes) {
-  check(pipeline, buffers.size(), push_bytes);
   std::vector<vk::DescriptorBufferInfo> infos;
   std::vector<vk::BufferView> views;
   infos.reserve(buffers.size());

@@ -92,7 +92,7 @@ class CommandList {
   };
   // Throws unless `pipeline` takes `buffer_count` buffers and `push_bytes` of constants.
   static void check(const ComputePipeline& pipeline, size_t buffer_count, uint32_t push_bytes);
-  // Checks, binds `buffers` and pushes the constants of a dispatch of `pipeline`.
+  // Binds `buffers` and pushes the constants of a dispatch of `pipeline` (after check()).
   void bind(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
             uint32_t push_bytes);
   // Records `dispatch` (the vkCmdDispatch*), between two timestamps when the list is profiled.

@@ -10,4 +10,8 @@
 // product), which stays below that while a * 3.6e-7 < 0.5.
 uint small_quotient(uint a, uint b) { return uint((float(a) + 0.5) * (1.0 / float(b))); }
 
+// ceil(a / b) (b > 0) by integer division, for any a (the division first: a + b - 1 could wrap);
+// for counts the GPU holds, once per dispatch, not per lane.
+uint ceil_quotient(uint a, uint b) { return a / b + uint(a % b != 0u); }
+
 #endif
