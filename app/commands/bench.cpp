@@ -145,6 +145,7 @@ Json bench_pipeline(gpu::Context& ctx, const std::vector<Frame>& frames, const s
   KernelTimes kernel_times;
   const size_t skip = 2;
   for (size_t i = 0; i < frames.size(); ++i) {
+    slam.note_frame_time(frames[i].timestamp_s, frames[i].colour_readout_s);  // as `run` does
     const auto start = std::chrono::steady_clock::now();
     const auto r = slam.process(frames[i].depth_m.ptr<float>(), frames[i].rgb.data);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

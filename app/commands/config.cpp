@@ -379,10 +379,10 @@ PipelineConfig load_config(const std::filesystem::path& path) {
                               "[0, 1], agreeing_frames and keyframe_pull_min_inliers >= 0");
   });
   s.section("rolling_shutter", file + ": rolling_shutter", [&](Section& q) {
-    double readout_s = config.rolling_shutter.colour_readout_s.value_or(0.0);
-    q.field("colour_readout_s", readout_s).field("nominal_frame_interval_s", config.rolling_shutter.nominal_frame_interval_s);
-    if (q.raw("colour_readout_s")) config.rolling_shutter.colour_readout_s = readout_s;
-    if (!(std::abs(readout_s) <= 1.0) || !(config.rolling_shutter.nominal_frame_interval_s > 0))
+    double readout_s = config.slam.rolling_shutter.colour_readout_s.value_or(0.0);
+    q.field("colour_readout_s", readout_s).field("nominal_frame_interval_s", config.slam.rolling_shutter.nominal_frame_interval_s);
+    if (q.raw("colour_readout_s")) config.slam.rolling_shutter.colour_readout_s = readout_s;
+    if (!(std::abs(readout_s) <= 1.0) || !(config.slam.rolling_shutter.nominal_frame_interval_s > 0))
       throw Error(q.where() + ": colour_readout_s must be within -1..1 s and nominal_frame_interval_s > 0");
   });
   s.reject_unknown();

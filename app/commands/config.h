@@ -13,7 +13,7 @@ namespace cofusion::commands {
 // (slam::FusionParams), "slam" (slam::SlamParams' own members), "segmentation"
 // (segmentation::MotionSegmentationParams, SLIC under "segmentation": {"slic": {...}}), "costs"
 // (slam::MotionCostParams), "lifecycle" (slam::LifecycleParams), "rolling_shutter"
-// (slam::RollingShutterParams), "motion_segmentation" (bool).
+// (slam::SlamParams::rolling_shutter), "motion_segmentation" (bool).
 struct PipelineConfig {
   slam::SlamParams slam;
   segmentation::MotionSegmentationParams segmentation;
@@ -21,7 +21,6 @@ struct PipelineConfig {
   slam::LifecycleParams lifecycle;
   slam::RestParams rest;
   slam::CameraCheckParams camera_check;
-  slam::RollingShutterParams rolling_shutter;
   slam::SemanticParams semantic;  // thresholds only: mode and classes come from the command line
   bool motion_segmentation = true;
 
@@ -35,7 +34,6 @@ struct PipelineConfig {
     p.lifecycle = lifecycle;
     p.rest = rest;
     p.camera_check = camera_check;
-    p.rolling_shutter = rolling_shutter;
     p.semantic = semantic;
     p.motion_segmentation = motion_segmentation;
     return p;

@@ -123,6 +123,7 @@ CoFusion::CoFusion(gpu::Context& ctx, const Intrinsics& intrinsics, const CoFusi
     throw Error("semantic: confirm_frames must be >= 1, min_instance_area_fraction in [0, 1), join_min_iou in (0, 1], "
                 "resting_max_unexplained_fraction in [0, 1]");
   main_stream_.set_profile_group("frame");
+  unwarper_ = ColourUnwarper(params.slam.rolling_shutter);
   preprocess_ = params.slam.effective_preprocess();
   // Object trackers differ from the background's (the outline term reads the live gradients).
   preprocess_.live_gradients = preprocess_.live_gradients || Model::tracker_params(params, 1).needs_live_gradients();
@@ -634,17 +635,9 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
 // camera turning as it did over the last frame; the input itself without a rolling shutter, on
 // the first frame and while the camera is lost.
 const uint8_t* CoFusion::without_rolling_shutter(const uint8_t* rgb) {
-  while (frame_times_s_.size() > 3) frame_times_s_.pop_front();
-  const RollingShutterParams& p = params_.rolling_shutter;
-  const double readout_s = p.colour_readout_s.value_or(input_colour_readout_s_);
-  if (readout_s == 0.0 || frame_ == 0 || lost_ || models_.empty()) return rgb;
-  // The last motion spans the two frames before this one.
-  const size_t n = frame_times_s_.size();
-  const double interval_s = n == 3 && frame_times_s_[1] > frame_times_s_[0] ? frame_times_s_[1] - frame_times_s_[0]
-                                                                             : p.nominal_frame_interval_s;
-  unwarped_rgb_.resize(size_t(intrinsics_.width) * intrinsics_.height * 3);
-  unwarp_colour(rgb, intrinsics_, models_.front()->last_motion, interval_s, readout_s, unwarped_rgb_.data());
-  return unwarped_rgb_.data();
+  const bool have_motion = frame_ > 0 && !lost_ && !models_.empty();
+  return unwarper_.unwarp(rgb, intrinsics_, have_motion ? models_.front()->last_motion : Eigen::Isometry3d::Identity(),
+                          have_motion);
 }
 
 // Predicts and tracks every active model, or, while the camera is lost, tries to relocalise it

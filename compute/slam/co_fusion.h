@@ -358,8 +358,6 @@ struct CoFusionParams {
   RestParams rest;
   RelocalisationParams relocalisation;
   CameraCheckParams camera_check;
-  // The colour camera's rolling shutter (0 = global shutter).
-  RollingShutterParams rolling_shutter;
   // false: background only (no segmentation, no new models), as an ElasticFusion-class system.
   bool motion_segmentation = true;
   // Instance masks (process()'s `semantic`): excluded classes, segmentation mode.
@@ -471,8 +469,7 @@ class CoFusion {
   // RollingShutterParams::nominal_frame_interval_s apart), and its colour camera's readout time
   // as the input gives it (RollingShutterParams::colour_readout_s, which overrides it).
   void note_frame_time(double t_s, double input_colour_readout_s) {
-    frame_times_s_.push_back(t_s);
-    input_colour_readout_s_ = input_colour_readout_s;
+    unwarper_.note_frame_time(t_s, input_colour_readout_s);
   }
 
   // Active and inactive models (background first, then by id).
@@ -631,10 +628,8 @@ class CoFusion {
   std::vector<float> previous_depth_m_;
   // This frame's colour and excluded pixels (process() only): for the keyframes' pose of the camera.
   const uint8_t* frame_rgb_ = nullptr;
-  // This frame's colour resampled to its middle row's pose (RollingShutterParams).
-  std::vector<uint8_t> unwarped_rgb_;
-  std::deque<double> frame_times_s_;  // note_frame_time's, the last three
-  double input_colour_readout_s_ = 0.0;
+  // Resamples each frame's colour to its middle row's pose (RollingShutterParams) and holds it.
+  ColourUnwarper unwarper_;
   const std::vector<uint8_t>* frame_excluded_ = nullptr;
   // This frame's keyframes' pose where a CPU job computes it while the GPU tracks (process() only;
   // empty: computed where it is needed).

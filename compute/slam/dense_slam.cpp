@@ -29,16 +29,19 @@ DenseSlam::DenseSlam(gpu::Context& ctx, const Intrinsics& intrinsics, const Slam
       tracker_(ctx, params.tracker),
       live_(kernels::FramePyramid::allocate(ctx, intrinsics, params.preprocess.pyramid_levels, "live")),
       prediction_(ModelPrediction::allocate(ctx, intrinsics, params.preprocess.pyramid_levels, "prediction")),
-      model_(ctx, 0, params.fusion.initial_capacity) {
+      model_(ctx, 0, params.fusion.initial_capacity),
+      unwarper_(params.rolling_shutter) {
   if (int(params.tracker.iterations_per_level.size()) < params.preprocess.pyramid_levels)
     throw Error("tracker needs iterations for each of the " + std::to_string(params.preprocess.pyramid_levels) +
                 " pyramid levels");
 }
 
-FrameResult DenseSlam::process(const float* depth_m, const uint8_t* rgb) {
+FrameResult DenseSlam::process(const float* depth_m, const uint8_t* input_rgb) {
   FrameResult r;
   r.frame = frame_;
   Stopwatch clock;
+  // A frame whose tracking failed leaves no motion to go by (last_motion_ is then no motion).
+  const uint8_t* rgb = unwarper_.unwarp(input_rgb, live_.levels[0].intrinsics, last_motion_, frame_ > 0);
   live_.upload(stream_, depth_m, rgb);
   r.stage_ms.emplace_back("upload", clock.lap_ms());
   stream_.run([&](gpu::CommandList& c) {

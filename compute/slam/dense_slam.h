@@ -9,6 +9,7 @@
 
 #include "gpu/stream.h"
 #include "kernels/preprocess.h"
+#include "slam/rolling_shutter.h"
 #include "slam/surfel_model.h"
 #include "slam/tracker.h"
 
@@ -25,6 +26,8 @@ struct SlamParams {
   // old (a young model has no stable surfels yet; old unconfirmed ones are mostly noise).
   // Measured: 10 instead of 30 takes TUM fr1/rpy (200 frames) from 3.3 to 2.7 cm ATE.
   int prediction_recent_window_frames = 10;
+  // The colour camera's rolling shutter (0 = global shutter; unset = as note_frame_time says).
+  RollingShutterParams rolling_shutter;
 
   // `preprocess` with what the tracker needs switched on (the live gradients of its ESM term).
   kernels::PreprocessParams effective_preprocess() const {
@@ -50,7 +53,14 @@ class DenseSlam {
 
   // Processes the next frame: `depth_m` width*height floats in metres (0/NaN = no reading),
   // `rgb` width*height*3 bytes. Returns the camera pose and diagnostics.
+  // `rgb` is resampled for the colour camera's rolling shutter (SlamParams::rolling_shutter) by the
+  // camera's last motion, as CoFusion does.
   FrameResult process(const float* depth_m, const uint8_t* rgb);
+  // The next frame's time, seconds, and its colour camera's readout as the input gives it
+  // (ColourUnwarper::note_frame_time); without calls, frames are taken as global-shutter ones.
+  void note_frame_time(double t_s, double input_colour_readout_s) {
+    unwarper_.note_frame_time(t_s, input_colour_readout_s);
+  }
 
   const SurfelModel& model() const { return model_; }
   SurfelModel& model() { return model_; }
@@ -71,6 +81,7 @@ class DenseSlam {
   int frame_ = 0;
   Eigen::Isometry3d T_world_camera_ = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d last_motion_ = Eigen::Isometry3d::Identity();  // T_{t-2}^{-1} T_{t-1}
+  ColourUnwarper unwarper_;
 };
 
 }  // namespace cofusion::slam

@@ -53,4 +53,23 @@ void unwarp_colour(const uint8_t* rgb, const Intrinsics& K, const Eigen::Isometr
   cv::remap(in, dst, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
 }
 
+void ColourUnwarper::note_frame_time(double t_s, double input_colour_readout_s) {
+  frame_times_s_.push_back(t_s);
+  while (frame_times_s_.size() > 3) frame_times_s_.pop_front();
+  input_colour_readout_s_ = input_colour_readout_s;
+}
+
+const uint8_t* ColourUnwarper::unwarp(const uint8_t* rgb, const Intrinsics& K, const Eigen::Isometry3d& last_motion,
+                                      bool have_motion) {
+  const double readout = readout_s();
+  if (readout == 0.0 || !have_motion) return rgb;
+  // The last motion spans the two frames before this one.
+  const size_t n = frame_times_s_.size();
+  const double interval_s = n == 3 && frame_times_s_[1] > frame_times_s_[0] ? frame_times_s_[1] - frame_times_s_[0]
+                                                                             : params_.nominal_frame_interval_s;
+  unwarped_rgb_.resize(size_t(K.width) * K.height * 3);
+  unwarp_colour(rgb, K, last_motion, interval_s, readout, unwarped_rgb_.data());
+  return unwarped_rgb_.data();
+}
+
 }  // namespace cofusion::slam

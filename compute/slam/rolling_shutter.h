@@ -4,7 +4,9 @@
 // is the one at its middle row; unwarp_colour resamples every other row to that pose.
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <deque>
 #include <optional>
+#include <vector>
 
 #include "common/intrinsics.h"
 
@@ -30,5 +32,32 @@ void unwarp_colour(const uint8_t* rgb, const Intrinsics& K, const Eigen::Isometr
 
 // The rotation from row `v`'s camera to the middle row's camera (unwarp_colour's per-row turn).
 Eigen::Matrix3d row_rotation(int v, int height, const Eigen::Vector3d& angular_velocity_rad_s, double readout_s);
+
+// A pipeline's colour frames without their rolling shutter (RollingShutterParams): the frame
+// times and readout the input gives, and the buffer the resampled colour lives in until the next
+// frame. CoFusion and DenseSlam share it, so that `bench`'s figures for either do the work `run` does.
+class ColourUnwarper {
+ public:
+  explicit ColourUnwarper(RollingShutterParams params = {}) : params_(params) {}
+
+  // The next frame's time (seconds; frames without timestamps are taken
+  // RollingShutterParams::nominal_frame_interval_s apart) and its colour camera's readout time as
+  // the input gives it (RollingShutterParams::colour_readout_s overrides it).
+  void note_frame_time(double t_s, double input_colour_readout_s);
+
+  // The frame's colour as its middle row's pose would have seen it, for a camera that moved by
+  // `last_motion` (T_previous_current) over the last frame; `rgb` itself where there is no
+  // readout or no motion to go by (`have_motion` false: the first frame, a lost camera).
+  const uint8_t* unwarp(const uint8_t* rgb, const Intrinsics& K, const Eigen::Isometry3d& last_motion, bool have_motion);
+
+  // The readout time in use, seconds (0: a global shutter).
+  double readout_s() const { return params_.colour_readout_s.value_or(input_colour_readout_s_); }
+
+ private:
+  RollingShutterParams params_;
+  std::deque<double> frame_times_s_;  // note_frame_time's, the last three
+  double input_colour_readout_s_ = 0.0;
+  std::vector<uint8_t> unwarped_rgb_;
+};
 
 }  // namespace cofusion::slam

@@ -124,5 +124,43 @@ TEST(RollingShutter, RaysFromOutsideTheImageAreBlackAndTheMiddleRowStays) {
   EXPECT_LT(Eigen::AngleAxisd(R).angle(), 0.03 * 6.0 / kHeight);  // half a row's turn at most
 }
 
+// ColourUnwarper: the readout from the input unless the parameters set one, the interval from the
+// frame times (the two frames the last motion spans), and the input itself without a motion or a
+// readout.
+TEST(RollingShutter, ColourUnwarperTakesReadoutAndIntervalFromTheInput) {
+  const Intrinsics k = small_camera();
+  const Eigen::Vector3d w(1.6, -2.2, 1.2);
+  const std::vector<uint8_t> img = rolling_shutter_image(k, w, 0.03);
+  const auto expect_unwarped = [&](slam::ColourUnwarper& u, double interval_s, double readout_s, const char* what) {
+    std::vector<uint8_t> expected(img.size());
+    slam::unwarp_colour(img.data(), k, motion_over(w, kInterval), interval_s, readout_s, expected.data());
+    const uint8_t* out = u.unwarp(img.data(), k, motion_over(w, kInterval), true);
+    EXPECT_NE(out, img.data()) << what;
+    EXPECT_EQ(std::vector<uint8_t>(out, out + img.size()), expected) << what;
+  };
+  slam::ColourUnwarper from_input;
+  EXPECT_EQ(from_input.unwarp(img.data(), k, motion_over(w, kInterval), true), img.data()) << "no readout yet";
+  from_input.note_frame_time(1.0, 0.03);
+  EXPECT_EQ(from_input.unwarp(img.data(), k, motion_over(w, kInterval), false), img.data()) << "no motion";
+  expect_unwarped(from_input, 1.0 / 30.0, 0.03, "one frame time: the nominal interval");
+  from_input.note_frame_time(1.05, 0.03);
+  from_input.note_frame_time(1.09, 0.03);
+  expect_unwarped(from_input, 0.05, 0.03, "the last motion spans the two frames before this one");
+  from_input.note_frame_time(1.12, 0.03);
+  expect_unwarped(from_input, 0.04, 0.03, "the next frame's");
+
+  slam::RollingShutterParams global;
+  global.colour_readout_s = 0.0;
+  slam::ColourUnwarper overridden(global);
+  overridden.note_frame_time(1.0, 0.03);
+  EXPECT_EQ(overridden.unwarp(img.data(), k, motion_over(w, kInterval), true), img.data()) << "a global shutter";
+  slam::RollingShutterParams bottom_up;
+  bottom_up.colour_readout_s = -0.02;
+  bottom_up.nominal_frame_interval_s = 0.1;
+  slam::ColourUnwarper set(bottom_up);
+  set.note_frame_time(0.0, 0.03);
+  expect_unwarped(set, 0.1, -0.02, "the parameters' readout and nominal interval");
+}
+
 }  // namespace
 }  // namespace cofusion::test
