@@ -6,7 +6,8 @@ BufferPtr Buffer::create(Context& ctx, size_t size_bytes, const std::string& nam
   return BufferPtr(new Buffer(ctx, size_bytes, name, usage));
 }
 
-Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferUsage usage) : name_(name) {
+Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferUsage usage)
+    : name_(name), usage_(usage) {
   size_ = std::max<size_t>(4, (size_bytes + 3) / 4 * 4);
   const auto& features = ctx.features();
   if (features.max_memory_allocation_size && size_ > features.max_memory_allocation_size)
@@ -16,14 +17,16 @@ Buffer::Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferU
     throw DeviceMemoryError("buffer '" + name + "' of " + std::to_string(size_) + " bytes exceeds device memory (" +
                 std::to_string(features.device_local_heap_bytes) + " bytes)");
 
-  const bool bda = features.buffer_device_address && usage == BufferUsage::Device;
+  const bool device = usage != BufferUsage::Staging;
+  const bool bda = features.buffer_device_address && device;
   vk::BufferUsageFlags flags = vk::BufferUsageFlagBits::eTransferSrc | vk::BufferUsageFlagBits::eTransferDst;
   // The Vulkan buffer is a whole number of 16-byte texels, so that the texel view reaches every
   // byte of size_.
   const size_t vk_size = (size_ + 15) / 16 * 16;
   const uint64_t texels = vk_size / 16;
-  const bool texel_view = usage == BufferUsage::Device && texels > 0 && texels <= features.max_texel_buffer_elements;
-  if (usage == BufferUsage::Device) flags |= vk::BufferUsageFlagBits::eStorageBuffer | vk::BufferUsageFlagBits::eIndirectBuffer;
+  const bool texel_view = device && texels > 0 && texels <= features.max_texel_buffer_elements;
+  if (device) flags |= vk::BufferUsageFlagBits::eStorageBuffer;
+  if (usage == BufferUsage::Indirect) flags |= vk::BufferUsageFlagBits::eIndirectBuffer;
   if (texel_view) flags |= vk::BufferUsageFlagBits::eUniformTexelBuffer;
   if (bda) flags |= vk::BufferUsageFlagBits::eShaderDeviceAddress;
   buffer_ = vk::raii::Buffer(ctx.device(), vk::BufferCreateInfo{.size = vk_size, .usage = flags,

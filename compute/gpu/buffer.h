@@ -14,8 +14,9 @@
 namespace cofusion::gpu {
 
 enum class BufferUsage {
-  Device,   // working storage of kernels (device-local; mapped only on unified memory)
-  Staging,  // host-visible, host-coherent transfer source/destination
+  Device,    // working storage of kernels (device-local; mapped only on unified memory)
+  Indirect,  // the same, also read by the GPU as indirect dispatch arguments (CommandList::dispatch_indirect)
+  Staging,   // host-visible, host-coherent transfer source/destination
 };
 
 // Thrown when the device has no memory left for a buffer (allocation failed, or larger than its
@@ -41,6 +42,7 @@ class Buffer {
 
   size_t size() const { return size_; }
   const std::string& name() const { return name_; }
+  BufferUsage usage() const { return usage_; }
   vk::Buffer handle() const { return *buffer_; }
   // Host pointer when mapped, nullptr otherwise.
   void* mapped() const { return mapped_; }
@@ -56,6 +58,7 @@ class Buffer {
   Buffer(Context& ctx, size_t size_bytes, const std::string& name, BufferUsage usage);
   std::string name_;
   size_t size_ = 0;
+  BufferUsage usage_ = BufferUsage::Device;
   vk::raii::Buffer buffer_{nullptr};
   vk::raii::DeviceMemory memory_{nullptr};
   vk::raii::BufferView texel_view_{nullptr};

@@ -18,6 +18,9 @@ void CommandList::dispatch(const ComputePipeline& pipeline, std::initializer_lis
 void CommandList::dispatch_indirect(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers,
                                     const void* push, uint32_t push_bytes, const BufferPtr& args, size_t offset) {
   if (!args) throw Error("indirect dispatch of '" + pipeline.name() + "': null arguments buffer");
+  if (args->usage() != BufferUsage::Indirect)
+    throw Error("indirect dispatch of '" + pipeline.name() + "': arguments buffer '" + args->name() +
+                "' was not created with BufferUsage::Indirect");
   if (offset % 4 != 0 || offset + sizeof(VkDispatchIndirectCommand) > args->size())
     throw Error("indirect dispatch of '" + pipeline.name() + "': arguments at byte " + std::to_string(offset) +
                 " are unaligned or outside '" + args->name() + "'");

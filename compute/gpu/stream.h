@@ -45,9 +45,9 @@ class CommandList {
                 uint32_t groups_x, uint32_t groups_y = 1, uint32_t groups_z = 1) {
     dispatch(pipeline, buffers, &params, sizeof(Params), groups_x, groups_y, groups_z);
   }
-  // As dispatch(), with the workgroup counts read by the GPU from `args` at `offset` (a
-  // VkDispatchIndirectCommand written earlier in this list, then indirect_barrier()). Counts of 0
-  // dispatch nothing.
+  // As dispatch(), with the workgroup counts read by the GPU from `args` (a BufferUsage::Indirect
+  // buffer) at `offset` (a VkDispatchIndirectCommand written earlier in this list, then
+  // indirect_barrier()). Counts of 0 dispatch nothing.
   void dispatch_indirect(const ComputePipeline& pipeline, std::initializer_list<BufferPtr> buffers, const void* push,
                          uint32_t push_bytes, const BufferPtr& args, size_t offset);
   template <typename Params>

@@ -27,6 +27,8 @@ void IndirectGroups::record(gpu::CommandList& cmd, const gpu::BufferPtr& counter
   if (group_size_a == 0 || group_size_b == 0) throw Error("indirect_groups: a group size of 0");
   if (!args || args->size() < kBytes)
     throw Error("indirect_groups: the arguments buffer needs " + std::to_string(kBytes) + " bytes");
+  if (args->usage() != gpu::BufferUsage::Indirect)
+    throw Error("indirect_groups: the arguments buffer '" + args->name() + "' was not created with BufferUsage::Indirect");
   const gpu_layout::IndirectGroupsParams p{count_slot, bound, group_size_a, group_size_b};
   cmd.dispatch(groups_, {counter, args}, p, 1);
   cmd.indirect_barrier();

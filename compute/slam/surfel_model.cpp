@@ -33,7 +33,8 @@ SurfelModel::SurfelModel(gpu::Context& ctx, int id, unsigned initial_capacity) :
   claim_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(uint32_t), name + " claims");
   merge_target_ = gpu::Buffer::create(ctx, size_t{capacity_} * sizeof(uint32_t), name + " merge targets");
   counter_ = gpu::Buffer::create(ctx, 4 * sizeof(uint32_t), name + " counter");
-  maintenance_groups_ = gpu::Buffer::create(ctx, kernels::IndirectGroups::kBytes, name + " maintenance groups");
+  maintenance_groups_ = gpu::Buffer::create(ctx, kernels::IndirectGroups::kBytes, name + " maintenance groups",
+                                            gpu::BufferUsage::Indirect);
 }
 
 void SurfelModel::reserve(gpu::Stream& stream, unsigned needed) {

@@ -4,6 +4,7 @@
 // one block, a block and one, several thousand blocks (more blocks than the scan's invocations),
 // with every element kept, none, and random ones; the scan of a count only the GPU knows and the
 // workgroup counts of indirect dispatches over it (indirect_groups).
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <random>
@@ -148,7 +149,7 @@ TEST_F(Compaction, IndirectGroupsMatchReferenceAndDispatch) {
     for (uint32_t count : counts) {
       const std::string what = "count " + std::to_string(count) + ", groups of 128 and " + std::to_string(group_b);
       auto counter = upload(std::vector<uint32_t>{9, count, 0, 0}, "counter");
-      auto args = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "args");
+      auto args = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "args", gpu::BufferUsage::Indirect);
       stream().run([&](gpu::CommandList& c) { groups.record(c, counter, 1, bound, 128, group_b, args); });
       const auto expected = ref::indirect_groups(count, bound, 128, group_b);
       EXPECT_EQ(stream().download<uint32_t>(args, 6), std::vector<uint32_t>(expected.begin(), expected.end())) << what;
@@ -170,15 +171,28 @@ TEST_F(Compaction, IndirectGroupsMatchReferenceAndDispatch) {
         EXPECT_EQ(gpu_blocks[b], b < expected[3] ? all_counts[b] : 0x7777u) << "block " << b << ", " << what;
     }
   EXPECT_EQ(ref::indirect_groups(0xFFFFFFFFu, 0xFFFFFFFFu, 1, 128)[3], 0x2000000u) << "the reference near 2^32";
-  auto args = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes - 4, "short args");
+  auto args = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes - 4, "short args", gpu::BufferUsage::Indirect);
   auto counter = upload(std::vector<uint32_t>{1, 0, 0, 0}, "counter");
   EXPECT_THROW(stream().run([&](gpu::CommandList& c) { groups.record(c, counter, 0, 1, 128, 256, args); }), Error);
+  auto plain_args = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "plain args");
+  EXPECT_THROW(stream().run([&](gpu::CommandList& c) { groups.record(c, counter, 0, 1, 128, 256, plain_args); }), Error)
+      << "arguments in a buffer without the indirect usage";
+  auto indirect = gpu::Buffer::create(ctx(), 16, "indirect counter", gpu::BufferUsage::Indirect);
   EXPECT_THROW(stream().run([&](gpu::CommandList& c) {
                  const L::TestCompactionParams p{1, COMPACTION_PASS_COUNT};
-                 c.dispatch_indirect(*compact_, {counter, counter, counter}, p, counter, 8);
+                 c.dispatch_indirect(*compact_, {counter, counter, counter}, p, indirect, 8);
                }),
                Error)
       << "arguments past the buffer's end";
+  try {
+    stream().run([&](gpu::CommandList& c) {
+      const L::TestCompactionParams p{1, COMPACTION_PASS_COUNT};
+      c.dispatch_indirect(*compact_, {counter, counter, counter}, p, counter, 0);
+    });
+    ADD_FAILURE() << "arguments in a buffer without the indirect usage";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("BufferUsage::Indirect")) << e.what();
+  }
 }
 
 }  // namespace

@@ -397,7 +397,8 @@ TEST_F(SurfelKernels, AssociateUpdateAndCleanupMatchReference) {
       auto keep_mask = gpu::Buffer::create(ctx(), kernels::CompactionScan::keep_mask_bytes(cp.surfel_count), "keep mask");
       // The cleanup runs over counter[0]'s surfels, not its bound (cp.surfel_count, the capacity):
       // blocks past them hold garbage that neither its scan nor its copy may read.
-      auto groups = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "maintenance groups");
+      auto groups = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "maintenance groups",
+                                        gpu::BufferUsage::Indirect);
       stream().run([&](gpu::CommandList& c) {
         c.fill(blocks, 0x7777u);
         c.fill(keep_mask, 0xFFFFFFFFu);
@@ -491,7 +492,8 @@ TEST_F(SurfelKernels, MergeSelectClaimAndCleanupMatchReference) {
                                             gpu::Buffer::create(ctx(), slots * 4, "claim"),
                                             upload(std::vector<uint32_t>{n, 0, 0, 0}),
                                             upload(labels, "labels")};
-      auto groups = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "maintenance groups");
+      auto groups = gpu::Buffer::create(ctx(), kernels::IndirectGroups::kBytes, "maintenance groups",
+                                        gpu::BufferUsage::Indirect);
       stream().run([&](gpu::CommandList& c) {
         pipes_->maintenance_groups(c, b.counter, bound, groups);
         pipes_->merge_select(c, b, mp, groups);
