@@ -42,6 +42,7 @@ FrameResult DenseSlam::process(const float* depth_m, const uint8_t* input_rgb) {
   Stopwatch clock;
   // A frame whose tracking failed leaves no motion to go by (last_motion_ is then no motion).
   const uint8_t* rgb = unwarper_.unwarp(input_rgb, live_.levels[0].intrinsics, last_motion_, frame_ > 0);
+  if (rgb != input_rgb) r.stage_ms.emplace_back("rolling shutter", clock.lap_ms());
   live_.upload(stream_, depth_m, rgb);
   r.stage_ms.emplace_back("upload", clock.lap_ms());
   stream_.run([&](gpu::CommandList& c) {
