@@ -62,7 +62,8 @@ void ColourUnwarper::note_frame_time(double t_s, double input_colour_readout_s) 
 const uint8_t* ColourUnwarper::unwarp(const uint8_t* rgb, const Intrinsics& K, const Eigen::Isometry3d& last_motion,
                                       bool have_motion) {
   const double readout = readout_s();
-  if (readout == 0.0 || !have_motion) return rgb;
+  // Without a turn every row sees the middle row's view: the resampling would copy the image.
+  if (readout == 0.0 || !have_motion || last_motion.rotation().isIdentity(0.0)) return rgb;
   // The last motion spans the two frames before this one.
   const size_t n = frame_times_s_.size();
   const double interval_s = n == 3 && frame_times_s_[1] > frame_times_s_[0] ? frame_times_s_[1] - frame_times_s_[0]

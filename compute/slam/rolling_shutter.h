@@ -47,7 +47,7 @@ class ColourUnwarper {
 
   // The frame's colour as its middle row's pose would have seen it, for a camera that moved by
   // `last_motion` (T_previous_current) over the last frame; `rgb` itself where there is no
-  // readout or no motion to go by (`have_motion` false: the first frame, a lost camera).
+  // readout, no turn, or no motion to go by (`have_motion` false: the first frame, a lost camera).
   const uint8_t* unwarp(const uint8_t* rgb, const Intrinsics& K, const Eigen::Isometry3d& last_motion, bool have_motion);
 
   // The readout time in use, seconds (0: a global shutter).

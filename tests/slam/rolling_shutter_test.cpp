@@ -142,6 +142,9 @@ TEST(RollingShutter, ColourUnwarperTakesReadoutAndIntervalFromTheInput) {
   EXPECT_EQ(from_input.unwarp(img.data(), k, motion_over(w, kInterval), true), img.data()) << "no readout yet";
   from_input.note_frame_time(1.0, 0.03);
   EXPECT_EQ(from_input.unwarp(img.data(), k, motion_over(w, kInterval), false), img.data()) << "no motion";
+  Eigen::Isometry3d translation_only = Eigen::Isometry3d::Identity();
+  translation_only.translation() = Eigen::Vector3d(0.05, 0, 0);
+  EXPECT_EQ(from_input.unwarp(img.data(), k, translation_only, true), img.data()) << "no turn";
   expect_unwarped(from_input, 1.0 / 30.0, 0.03, "one frame time: the nominal interval");
   from_input.note_frame_time(1.05, 0.03);
   from_input.note_frame_time(1.09, 0.03);
