@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <thread>
@@ -212,6 +213,16 @@ DeviceFeatures query_features(const vk::raii::PhysicalDevice& device) {
 
 }  // namespace
 
+uint32_t lavapipe_threads(const char* lp_num_threads) {
+  if (lp_num_threads && *lp_num_threads) {
+    char* end = nullptr;
+    const unsigned long n = std::strtoul(lp_num_threads, &end, 10);
+    if (end && *end == '\0' && std::isdigit(static_cast<unsigned char>(*lp_num_threads)))
+      return static_cast<uint32_t>(std::clamp<unsigned long>(n, 1, 256));
+  }
+  return std::max(1u, std::thread::hardware_concurrency());
+}
+
 Context::Context(const ContextOptions& options) : options_(options) {
   instance_ = make_instance(loader_, options_.validation, &debug_utils_, options_.instance_extensions);
   if (options_.validation && debug_utils_) {
@@ -234,6 +245,7 @@ Context::Context(const ContextOptions& options) : options_(options) {
   if (!info_.usable) throw Error("Vulkan device '" + info_.name + "' cannot be used: " + info_.why_unusable);
   physical_device_ = std::move(devices[chosen]);
   features_ = query_features(physical_device_);
+  software_threads_ = lavapipe_threads(std::getenv("LP_NUM_THREADS"));
   const bool spare_threads = std::thread::hardware_concurrency() >= kMinThreadsToSpin;
   spin_wait_us_ = options_.spin_wait_us >= 0           ? static_cast<uint32_t>(options_.spin_wait_us)
                   : is_software() || !spare_threads ? 0u

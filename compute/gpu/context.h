@@ -95,6 +95,11 @@ struct Queue {
   std::mutex mutex;
 };
 
+// How many threads lavapipe (Mesa's llvmpipe) gives a dispatch: one per online CPU of the host,
+// or the value of LP_NUM_THREADS (`lp_num_threads`, null when unset) where that is a number
+// (0, lavapipe's "in the calling thread", counts as 1).
+uint32_t lavapipe_threads(const char* lp_num_threads);
+
 class Context {
  public:
   explicit Context(const ContextOptions& options = {});
@@ -114,6 +119,9 @@ class Context {
   // e.g. "llvmpipe (LLVM 15.0.6, 256 bits) [cpu, Vulkan 1.3.230], 1 of 1 compute queue"
   std::string description() const;
   bool is_software() const { return info_.type == "cpu"; }
+  // Threads a CPU device runs one dispatch's workgroups on (lavapipe_threads with this process's
+  // LP_NUM_THREADS). Meaningless for a GPU.
+  uint32_t software_threads() const { return software_threads_; }
   // ContextOptions::spin_wait_us resolved for this device.
   uint32_t spin_wait_us() const { return spin_wait_us_; }
   static constexpr uint32_t kDefaultSpinWaitUs = 2000;
@@ -165,6 +173,7 @@ class Context {
   vk::raii::PhysicalDevice physical_device_{nullptr};
   vk::raii::Device device_{nullptr};
   DeviceInfo info_;
+  uint32_t software_threads_ = 1;
   uint32_t spin_wait_us_ = 0;
   DeviceFeatures features_;
   bool debug_utils_ = false;

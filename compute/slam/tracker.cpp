@@ -84,8 +84,9 @@ void Tracker::set_params(const TrackerParams& requested) {
   validate(requested, "Tracker");
   TrackerParams params = requested;
   if (params.reduction_workgroups == 0)
-    params.reduction_workgroups = ctx_.is_software() ? TrackerParams::kCpuReductionWorkgroups
-                                                     : TrackerParams::kGpuReductionWorkgroups;
+    params.reduction_workgroups =
+        ctx_.is_software() ? std::clamp(static_cast<int>(ctx_.software_threads()), 1, TrackerParams::kCpuReductionWorkgroups)
+                           : TrackerParams::kGpuReductionWorkgroups;
   if (params.photometric_reweighted() && !reduce_reweighted_) {
     reduce_reweighted_.emplace(ctx_, "icp_rgb_reduce_reweighted", shaders::icp_rgb_reduce_reweighted_comp(), 11,
                                sizeof(L::IcpRgbReduceParams), reduction_texel_bindings());

@@ -148,9 +148,12 @@ struct TrackerParams {
   double converged_rotation_rad = 1e-4;
 
   // GPU only: workgroups of the reduction (each loops over its share of the pixels); 0 = by
-  // device. A few large ones suit a device that is the CPU itself (kCpuReductionWorkgroups, for
-  // lavapipe's threads); a GPU wants more to spread over its multiprocessors, but not so many
-  // that adding their partial sums on the host outweighs it (kGpuReductionWorkgroups).
+  // device. On a device that is the CPU itself, one per thread it runs them on
+  // (gpu::Context::software_threads, at most kCpuReductionWorkgroups): lavapipe pays about 0.04
+  // ms per workgroup beyond its threads' share of the pixels, so 16 took an 80x60 level 0.8 ms
+  // where 2 take 0.23 (docs/experiments.md). A GPU wants more to spread over its
+  // multiprocessors, but not so many that adding their partial sums on the host outweighs it
+  // (kGpuReductionWorkgroups).
   int reduction_workgroups = 0;
   static constexpr int kCpuReductionWorkgroups = 16;
   static constexpr int kGpuReductionWorkgroups = 64;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <numeric>
 #include <random>
 #include <thread>
@@ -329,6 +330,23 @@ TEST_F(ComputeCore, TimelineWaitOrdersWorkAcrossStreams) {
   EXPECT_GE(a.completed_value(), done_a.value);
   const auto out = b.download<uint32_t>(dst, n);
   for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(out[i], i + 3);
+}
+
+// Lavapipe runs a dispatch's workgroups on one thread per CPU unless LP_NUM_THREADS holds a
+// number; the context reports what this process's environment gives.
+TEST(LavapipeThreads, FollowTheCpusUnlessLpNumThreadsHoldsANumber) {
+  const uint32_t cpus = std::max(1u, std::thread::hardware_concurrency());
+  EXPECT_EQ(gpu::lavapipe_threads(nullptr), cpus);
+  EXPECT_EQ(gpu::lavapipe_threads(""), cpus);
+  EXPECT_EQ(gpu::lavapipe_threads("3"), 3u);
+  EXPECT_EQ(gpu::lavapipe_threads("0"), 1u);  // lavapipe's "in the calling thread"
+  EXPECT_EQ(gpu::lavapipe_threads("3x"), cpus);
+  EXPECT_EQ(gpu::lavapipe_threads("-2"), cpus);
+  EXPECT_EQ(gpu::lavapipe_threads("many"), cpus);
+}
+
+TEST_F(ComputeCore, ReportsTheThreadsOfASoftwareDevice) {
+  EXPECT_EQ(ctx().software_threads(), gpu::lavapipe_threads(std::getenv("LP_NUM_THREADS")));
 }
 
 // Waits that poll the timeline first (ContextOptions::spin_wait_us; by device: none where the
