@@ -206,9 +206,11 @@ bool CoFusion::cut_by_border(const Model& m) const {
 void CoFusion::choose_object_terms(Model& m) {
   const LifecycleParams& life = params_.lifecycle;
   const bool outline = life.object_outline_photometric && (life.object_outline_at_border || !cut_by_border(m));
-  if (m.tracker.params().outline_photometric == outline) return;
+  const bool skip_rim = life.object_photometric_skip_rim && !outline;
+  if (m.tracker.params().outline_photometric == outline && m.tracker.params().photometric_skip_rim == skip_rim) return;
   TrackerParams t = m.tracker.params();
   t.outline_photometric = outline;
+  t.photometric_skip_rim = skip_rim;
   m.tracker.set_params(t);
 }
 

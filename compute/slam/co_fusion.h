@@ -222,6 +222,14 @@ struct LifecycleParams {
   // stripes cut by the left border, drifted 18.3 mm with it and 2.2 mm without; in view, with
   // both silhouettes, it drifts 2.2 mm with it: docs/experiments.md).
   bool object_outline_at_border = false;
+  // While the outline term is off (cut by the border), object models leave the prediction's rim
+  // out of their live -> model photometric term (TrackerParams::photometric_skip_rim), as the
+  // outline term leaves it out: its fused colours mix the object's with what lay beside it.
+  // five_objects' object 5, whose landing where its motion reverses any change tips, drifted 2.8,
+  // 9.6, 12.4, 9.4, 2.8 mm RMSE (the scene's noise, seeds 2-5) with it and 10.6, 2.4, 13.0, 16.0,
+  // 14.9 without. For every object it was no default: table_placement's box, a narrow face, drifted
+  // 57 mm at seed 2 (docs/experiments.md, "The prediction's rim").
+  bool object_photometric_skip_rim = true;
   // Object models' photometric weight (TrackerParams::photometric_weight, the paper's lambda; the
   // background keeps its own). lambda = (sigma_icp / sigma_rgb)^2 weighs each term by its noise:
   // 2 mm of depth noise at 1 m (shared/depth_noise.h) against 2.5/255 of intensity noise gives

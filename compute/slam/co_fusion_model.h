@@ -101,6 +101,7 @@ struct CoFusion::Model {
     if (id != 0) {
       t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
       t.outline_photometric = p.lifecycle.object_outline_photometric;
+      t.photometric_skip_rim = false;  // while the outline term is off (CoFusion::choose_object_terms)
       t.photometric_weight = p.lifecycle.object_photometric_weight;
       t.max_intensity_diff = p.lifecycle.object_max_intensity_diff;
       t.icp_noise_reference_depth_m = p.lifecycle.object_icp_noise_reference_depth_m;

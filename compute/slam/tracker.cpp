@@ -135,7 +135,8 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   p.flags = (params_.use_photometric ? ICP_RGB_FLAG_PHOTOMETRIC : 0u) | (params_.esm_gradient ? ICP_RGB_FLAG_ESM : 0u) |
             (params_.outline_photometric ? ICP_RGB_FLAG_OUTLINE : 0u) |
             (params_.photometric_cauchy_k > 0 ? ICP_RGB_FLAG_CAUCHY : 0u) |
-            (params_.photometric_tile_weights ? ICP_RGB_FLAG_TILE_WEIGHTS : 0u);
+            (params_.photometric_tile_weights ? ICP_RGB_FLAG_TILE_WEIGHTS : 0u) |
+            (params_.photometric_skip_rim ? ICP_RGB_FLAG_SKIP_RIM : 0u);
   p.live_intensity_gain = static_cast<float>(scales.live_gain);
   p.outline_occlusion_margin_m = static_cast<float>(params_.outline_occlusion_margin_m);
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);

@@ -108,6 +108,14 @@ std::vector<HostLevel> download_levels(gpu::Stream& stream, const std::vector<ke
 }
 
 namespace {
+// Whether reference pixel (u, v) is on the prediction's rim: at the image's edge or with a
+// 4-neighbour the prediction does not cover.
+bool on_rim(const HostLevel& ref, int u, int v) {
+  const int w = ref.intrinsics.width, h = ref.intrinsics.height;
+  return u == 0 || v == 0 || u == w - 1 || v == h - 1 || !(ref.vertex.at(u - 1, v).w > 0) ||
+         !(ref.vertex.at(u + 1, v).w > 0) || !(ref.vertex.at(u, v - 1).w > 0) || !(ref.vertex.at(u, v + 1).w > 0);
+}
+
 // The outline, model -> live (see TrackerParams::outline_photometric and icp_rgb_reduce.comp):
 // each reference pixel of `area` against the live intensity where the motion puts it.
 void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::Isometry3d& T,
@@ -122,10 +130,7 @@ void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::
     for (int u = area.x0; u < area.x1; ++u) {
       const glm::vec4& v_ref4 = ref.vertex.at(u, v);
       if (!(v_ref4.w > 0)) continue;
-      // The prediction's rim is left out (splats overhang the silhouette there).
-      if (u == 0 || v == 0 || u == w - 1 || v == h - 1 || !(ref.vertex.at(u - 1, v).w > 0) ||
-          !(ref.vertex.at(u + 1, v).w > 0) || !(ref.vertex.at(u, v - 1).w > 0) || !(ref.vertex.at(u, v + 1).w > 0))
-        continue;
+      if (on_rim(ref, u, v)) continue;  // splats overhang the silhouette there
       const Eigen::Vector3d v_ref = xyz(v_ref4);
       const Eigen::Vector3d x_live = Rt * v_ref + t_inv;
       if (!(x_live.z() > 0)) continue;
@@ -198,6 +203,7 @@ LinearSystemSums compute_sums(const HostLevel& live, const HostLevel& ref, const
       if (params.use_photometric && x >= 0 && y >= 0 && x < w - 1 && y < h - 1 &&
           std::abs(q.z() - v_ref.z) <= max_d) {
         const Bilinear b(x, y);
+        if (params.photometric_skip_rim && on_rim(ref, xn, yn)) continue;
         if (!(ref.vertex.at(b.x0, b.y0).w > 0 && ref.vertex.at(b.x0 + 1, b.y0).w > 0 && ref.vertex.at(b.x0, b.y0 + 1).w > 0 &&
               ref.vertex.at(b.x0 + 1, b.y0 + 1).w > 0))
           continue;

@@ -55,6 +55,11 @@ struct TrackerParams {
   // the rim shows the object's colour where the live image shows what lies beside it, and it held
   // moving objects back (docs/experiments.md).
   bool outline_photometric = false;
+  // The live -> model photometric term leaves out live pixels whose nearest reference pixel lies
+  // on the prediction's rim (as the outline term always does): splatted discs overhang the
+  // silhouette, so the rim's fused colours mix the object's with what lay beside it. CoFusion turns
+  // it on for object models (LifecycleParams::object_photometric_skip_rim).
+  bool photometric_skip_rim = false;
   // Outline term: a model pixel where the live depth is nearer than the model point by more than
   // this is occluded (another object in front) and left out.
   double outline_occlusion_margin_m = 0.03;

@@ -451,6 +451,10 @@ struct TestTexelParams {
 // motion puts the model's) are weighted by its tile's ICP_RGB_BINDING_TILE_WEIGHTS entry
 // (CameraCheckParams::photometric_tile_cap). Read only by icp_rgb_reduce_reweighted.comp.
 #define ICP_RGB_FLAG_TILE_WEIGHTS 16u
+// The live -> reference photometric term leaves out live pixels whose nearest reference pixel is
+// on the prediction's rim (a 4-neighbour uncovered, or the image's edge), as the outline term
+// always does (TrackerParams::photometric_skip_rim).
+#define ICP_RGB_FLAG_SKIP_RIM 32u
 #define ICP_RGB_PARTIAL_STRIDE 64         // floats per workgroup (16 vec4)
 #define ICP_RGB_MAX_SUBGROUPS 64          // shared memory holds this many subgroups: subgroup size >= 4
 struct IcpRgbReduceParams {

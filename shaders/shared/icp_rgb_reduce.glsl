@@ -155,7 +155,12 @@ void main() {
         abs(q.z - v_ref.z) <= p.max_distance_m) {
       const int x0 = int(floor(x)), y0 = int(floor(y));
       const uint j00 = uint(y0 * w + x0), j10 = j00 + 1u, j01 = j00 + p.width, j11 = j01 + 1u;
-      if (texel_vec4(ref_vertex, j00).w > 0.0 && texel_vec4(ref_vertex, j10).w > 0.0 &&
+      // The prediction's rim (ICP_RGB_FLAG_SKIP_RIM): its splats overhang the silhouette.
+      const bool rim = (p.flags & ICP_RGB_FLAG_SKIP_RIM) != 0u &&
+                       (xn == 0 || yn == 0 || xn == w - 1 || yn == h - 1 || texel_vec4(ref_vertex, j - 1u).w <= 0.0 ||
+                        texel_vec4(ref_vertex, j + 1u).w <= 0.0 || texel_vec4(ref_vertex, j - p.width).w <= 0.0 ||
+                        texel_vec4(ref_vertex, j + p.width).w <= 0.0);
+      if (!rim && texel_vec4(ref_vertex, j00).w > 0.0 && texel_vec4(ref_vertex, j10).w > 0.0 &&
           texel_vec4(ref_vertex, j01).w > 0.0 && texel_vec4(ref_vertex, j11).w > 0.0) {
         const vec4 wts = bilinear_weights(vec2(x - float(x0), y - float(y0)));
         const float I = dot(wts, vec4(texel_float(ref_intensity, j00), texel_float(ref_intensity, j10),

@@ -292,6 +292,20 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // The prediction's rim left out of the direct photometric term (TrackerParams::
+    // photometric_skip_rim, objects' default): fewer pairs, GPU and CPU alike, the ICP term untouched.
+    {
+      slam::TrackerParams q = params;
+      q.photometric_skip_rim = true;
+      const auto [g, c] = gpu_and_cpu(q);
+      expect_sums_near(g.rgb, c.rgb, 2e-3, what + " without the rim rgb");
+      EXPECT_EQ(c.icp, cpu.icp) << what;
+      EXPECT_LE(c.rgb[28], cpu.rgb[28]) << what;
+      if (s.w >= 160) {
+        EXPECT_LT(c.rgb[28], cpu.rgb[28]) << what << ": no rim pixel was left out";
+      }
+    }
+
     // Any number of reduction workgroups (0: by device; GPUs use more than lavapipe) sums the
     // same pixels: the same counts, the sums alike up to float rounding.
     for (int groups : {0, 1, slam::TrackerParams::kGpuReductionWorkgroups, 200}) {
