@@ -101,7 +101,8 @@ struct CoFusion::Model {
     if (id != 0) {
       t.min_inlier_ratio = p.lifecycle.object_min_inlier_ratio;
       t.outline_photometric = p.lifecycle.object_outline_photometric;
-      t.photometric_skip_rim = false;  // while the outline term is off (CoFusion::choose_object_terms)
+      // While the outline term is off (as CoFusion::choose_object_terms decides each frame).
+      t.photometric_skip_rim = p.lifecycle.object_photometric_skip_rim && !t.outline_photometric;
       t.photometric_weight = p.lifecycle.object_photometric_weight;
       t.max_intensity_diff = p.lifecycle.object_max_intensity_diff;
       t.icp_noise_reference_depth_m = p.lifecycle.object_icp_noise_reference_depth_m;

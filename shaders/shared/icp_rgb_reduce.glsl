@@ -103,6 +103,15 @@ Term zero_term() {
   return Term(z, z, z, z, z, z, z, z);
 }
 
+// Whether reference pixel j = (u, v) lies on the prediction's rim: at the image's edge or with a
+// 4-neighbour the prediction does not cover. Splatted discs overhang the silhouette there, so the
+// rim's fused colours mix the model's with what lay beside it (docs/experiments.md).
+bool on_rim(uint j, int u, int v) {
+  return u == 0 || v == 0 || u == int(p.width) - 1 || v == int(p.height) - 1 || texel_vec4(ref_vertex, j - 1u).w <= 0.0 ||
+         texel_vec4(ref_vertex, j + 1u).w <= 0.0 || texel_vec4(ref_vertex, j - p.width).w <= 0.0 ||
+         texel_vec4(ref_vertex, j + p.width).w <= 0.0;
+}
+
 void main() {
   const mat3 R = mat3(p.T_reference_live[0], p.T_reference_live[4], p.T_reference_live[8],   // column 0
                       p.T_reference_live[1], p.T_reference_live[5], p.T_reference_live[9],   // column 1
@@ -155,11 +164,7 @@ void main() {
         abs(q.z - v_ref.z) <= p.max_distance_m) {
       const int x0 = int(floor(x)), y0 = int(floor(y));
       const uint j00 = uint(y0 * w + x0), j10 = j00 + 1u, j01 = j00 + p.width, j11 = j01 + 1u;
-      // The prediction's rim (ICP_RGB_FLAG_SKIP_RIM): its splats overhang the silhouette.
-      const bool rim = (p.flags & ICP_RGB_FLAG_SKIP_RIM) != 0u &&
-                       (xn == 0 || yn == 0 || xn == w - 1 || yn == h - 1 || texel_vec4(ref_vertex, j - 1u).w <= 0.0 ||
-                        texel_vec4(ref_vertex, j + 1u).w <= 0.0 || texel_vec4(ref_vertex, j - p.width).w <= 0.0 ||
-                        texel_vec4(ref_vertex, j + p.width).w <= 0.0);
+      const bool rim = (p.flags & ICP_RGB_FLAG_SKIP_RIM) != 0u && on_rim(j, xn, yn);
       if (!rim && texel_vec4(ref_vertex, j00).w > 0.0 && texel_vec4(ref_vertex, j10).w > 0.0 &&
           texel_vec4(ref_vertex, j01).w > 0.0 && texel_vec4(ref_vertex, j11).w > 0.0) {
         const vec4 wts = bilinear_weights(vec2(x - float(x0), y - float(y0)));
@@ -198,13 +203,8 @@ void main() {
       const uint j = uint(jv) * p.width + uint(ju);  // reference pixel
       const vec4 v_ref = texel_vec4(ref_vertex, j);
       if (v_ref.w <= 0.0) continue;
-      // The prediction's rim (a model pixel with a 4-neighbour the model does not cover) is left
-      // out: splatted discs overhang the object's silhouette there, so the rim carries the
-      // object's colour where the object is not, and pulled the model back (docs/experiments.md).
-      if (ju == 0 || jv == 0 || ju == w - 1 || jv == h - 1 || texel_vec4(ref_vertex, j - 1u).w <= 0.0 ||
-          texel_vec4(ref_vertex, j + 1u).w <= 0.0 || texel_vec4(ref_vertex, j - p.width).w <= 0.0 ||
-          texel_vec4(ref_vertex, j + p.width).w <= 0.0)
-        continue;
+      // The prediction's rim is left out: it held moving objects back (docs/experiments.md).
+      if (on_rim(j, ju, jv)) continue;
       const vec3 x_live = Rt * v_ref.xyz + t_inv;
       if (x_live.z <= 0.0) continue;
       const float u = p.fx * x_live.x / x_live.z + p.cx, v = p.fy * x_live.y / x_live.z + p.cy;
