@@ -241,6 +241,18 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
     throw Error(where + ".spawn_steady_frames: must be 1..16 (the camera history's length)");
   if (c.deactivate_after_frames < 1 || c.probation_frames < 1 || c.merge_window_frames < 1)
     throw Error(where + ": frame counts must be at least 1");
+  s.section("probation_observed", where + ".probation_observed", [&](Section& q) {
+    slam::ObservedMotionParams& o = c.probation_observed;
+    q.field("points", o.points)
+        .field("depth_sigmas", o.depth_sigmas)
+        .field("max_intensity_diff", o.max_intensity_diff)
+        .field("max_still_ratio", o.max_still_ratio)
+        .field("min_counted", o.min_counted);
+    if (o.points < 0 || !(o.depth_sigmas > 0) || !(o.max_intensity_diff > 0) ||
+        !(o.max_still_ratio >= 0 && o.max_still_ratio <= 1) || !(o.min_counted >= 0 && o.min_counted <= 1))
+      throw Error(q.where() + ": points must be >= 0, depth_sigmas and max_intensity_diff > 0, max_still_ratio and "
+                              "min_counted in [0, 1]");
+  });
   s.section("spawn_rigidity", where + ".spawn_rigidity", [&](Section& q) {
     slam::RegionRigidityParams& r = c.spawn_rigidity;
     q.field("enabled", r.enabled)

@@ -982,7 +982,7 @@ void CoFusion::segment(const segmentation::Superpixels& superpixels, const float
       [&] { rising_ = rising_background(superpixels, costs.front(), seg.labels, static_cast<uint8_t>(active.size())); },
       [&] { changed_ = changed_since_previous(superpixels, depth_m, rgb, seg.labels); });
   part("rising cost and previous frame");
-  slots_ = apply_lifecycle(seg, costs, depth_m, active, out, spawned_slots);
+  slots_ = apply_lifecycle(seg, costs, depth_m, rgb, active, out, spawned_slots);
   if (mark_excluded(excluded, kMoverSlot, slots_)) upload_labels(slots_);
   part("lifecycle");
 }

@@ -33,6 +33,7 @@
 #include "slam/dense_slam.h"
 #include "slam/keyframe_database.h"
 #include "slam/motion_kernels.h"
+#include "slam/observed_motion.h"
 #include "slam/region_rigidity.h"
 #include "slam/rolling_shutter.h"
 #include "slam/semantic_masks.h"
@@ -179,6 +180,11 @@ struct LifecycleParams {
   int probation_frames = 6;
   double static_translation_m = 0.025;
   double static_rotation_deg = 5.0;
+  // ... and a new model spawned by motion that moved that far relative to the background stays on
+  // probation (and is merged back at its end) while its motion does not show in its pixels
+  // (observed_motion.h): a static surface that slides along its own plane (a far wall patch whose
+  // plane alone tracks it) travels without changing what the camera sees.
+  ObservedMotionParams probation_observed;
   // Two object models whose relative pose changed less than (merge_translation_m,
   // merge_rotation_deg) over the last merge_window_frames while both moved at least
   // (static_translation_m, static_rotation_deg) relative to the background move as one body and
@@ -535,7 +541,8 @@ class CoFusion {
   // The model lifecycle (lifecycle.cpp).
   std::vector<uint8_t> apply_lifecycle(const segmentation::SegmentationResult& seg,
                                        const std::vector<std::vector<float>>& costs, const float* depth_m,
-                                       std::vector<Model*>& order, CoFusionFrame& out, std::vector<int>& spawned_slots);
+                                       const uint8_t* rgb, std::vector<Model*>& order, CoFusionFrame& out,
+                                       std::vector<int>& spawned_slots);
   // This frame's outlier regions (pixel lists, largest first) and those of them that spawn.
   struct SpawnPlan {
     struct Spawn {
@@ -556,7 +563,10 @@ class CoFusion {
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
                                                const std::vector<Model*>& order, CoFusionFrame& out);
   void relabel(std::vector<uint8_t>& slots, int from, int to);
-  void merge_static_newcomers(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
+  void merge_static_newcomers(const std::vector<Model*>& order, const float* depth_m, const uint8_t* rgb,
+                              std::vector<uint8_t>& slots, CoFusionFrame& out);
+  bool motion_observed(const Model& m, const std::vector<uint8_t>& slots, const float* depth_m,
+                       const uint8_t* rgb) const;
   void merge_comoving(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out);
   static void hold_candidates(const SpawnPlan& plan, int background_slot, std::vector<uint8_t>& slots,
                               std::vector<int>& slot_pixels);
@@ -587,8 +597,9 @@ class CoFusion {
   std::optional<double> rigid_fraction(const std::vector<size_t>& pixels, const float* depth_m,
                                        const std::optional<Eigen::Vector3d>& centroid,
                                        const std::optional<Eigen::Vector3d>& previous_centroid) const;
-  void spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector<size_t>& pixels,
-                           const std::vector<int>& slot_pixels, CoFusionFrame& out, std::vector<int>& spawned_slots);
+  void spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector<size_t>& pixels, const float* depth_m,
+                           const uint8_t* rgb, const std::vector<int>& slot_pixels, CoFusionFrame& out,
+                           std::vector<int>& spawned_slots);
   void update_presence(const std::vector<int>& slot_pixels, CoFusionFrame& out);
   bool try_reactivate(Model& m, int slot, const Eigen::Vector3d& centroid_camera);
   bool relocalise(Model& bg, const FrameEncoding& encoding, const FrameFeatures& features);

@@ -168,6 +168,9 @@ struct CoFusion::Model {
   // Spawned by LifecycleParams::spawn_persist_*: the world centroid of its region where its
   // candidate track began; its probation also counts the travel from there.
   std::optional<Eigen::Vector3d> probation_start_world;
+  // Spawned by motion: its spawn frame (observed_motion.h), which tests while it is on probation
+  // whether its motion shows in its pixels; empty for other models.
+  SpawnEvidence probation_evidence;
   // A model spawned from an instance mask that has not been seen to move (SemanticParams::
   // resting_max_unexplained_fraction): it keeps its world pose without being tracked, and the
   // background keeps its surfels and tracks the camera with its pixels.

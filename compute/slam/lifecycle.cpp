@@ -58,7 +58,7 @@ std::vector<int> slot_pixel_counts(const std::vector<uint8_t>& slots) {
 // and retirement. Uploads the final label map.
 std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationResult& seg,
                                                const std::vector<std::vector<float>>& costs, const float* depth_m,
-                                               std::vector<Model*>& order, CoFusionFrame& out,
+                                               const uint8_t* rgb, std::vector<Model*>& order, CoFusionFrame& out,
                                                std::vector<int>& spawned_slots) {
   auto lap = std::chrono::steady_clock::now();
   const auto part = [&](const char* name) {
@@ -68,7 +68,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   };
   std::vector<uint8_t> slots = slots_from_segmentation(seg, costs, depth_m, order, out);
   part("slots");
-  merge_static_newcomers(order, slots, out);
+  merge_static_newcomers(order, depth_m, rgb, slots, out);
   merge_comoving(order, slots, out);
   part("merges");
   SpawnPlan plan = plan_spawns(seg, depth_m, static_cast<uint8_t>(order.size()), *order.front(), slots, out);
@@ -97,7 +97,7 @@ std::vector<uint8_t> CoFusion::apply_lifecycle(const segmentation::SegmentationR
   upload_labels(slots);
   part("label upload");
   for (const SpawnPlan::Spawn& sp : plan.spawns)
-    spawn_or_reactivate(sp, plan.regions[sp.region], slot_pixels, out, spawned_slots);
+    spawn_or_reactivate(sp, plan.regions[sp.region], depth_m, rgb, slot_pixels, out, spawned_slots);
   update_presence(slot_pixels, out);
   part("spawns, presence");
   std::erase_if(models_, [](const std::unique_ptr<Model>& m) { return m->slot == kRemovedSlot; });
@@ -162,9 +162,11 @@ void CoFusion::relabel(std::vector<uint8_t>& slots, int from, int to) {
       if (s == from) s = static_cast<uint8_t>(to);
 }
 
-// A young model that has not moved relative to the background within its probation is no object:
-// it is merged back, its pixels given to the background.
-void CoFusion::merge_static_newcomers(const std::vector<Model*>& order, std::vector<uint8_t>& slots, CoFusionFrame& out) {
+// A young model that has not moved relative to the background within its probation, or whose
+// motion never showed in its pixels (LifecycleParams::probation_observed), is no object: it is
+// merged back, its pixels given to the background.
+void CoFusion::merge_static_newcomers(const std::vector<Model*>& order, const float* depth_m, const uint8_t* rgb,
+                                      std::vector<uint8_t>& slots, CoFusionFrame& out) {
   const LifecycleParams& p = params_.lifecycle;
   Model& bg = *order.front();
   for (Model* m : order) {
@@ -172,14 +174,30 @@ void CoFusion::merge_static_newcomers(const std::vector<Model*>& order, std::vec
     const Eigen::Isometry3d moved = m->trajectory.front().second.inverse() * m->surfels.T_world_model;
     const double travel_m =
         m->probation_start_world ? (m->surfels.T_world_model.translation() - *m->probation_start_world).norm() : 0.0;
-    if (std::max(moved.translation().norm(), travel_m) >= p.static_translation_m ||
-        rotation_deg(moved) >= p.static_rotation_deg) {
+    const bool far_enough = std::max(moved.translation().norm(), travel_m) >= p.static_translation_m ||
+                            rotation_deg(moved) >= p.static_rotation_deg;
+    const bool observed = far_enough && motion_observed(*m, slots, depth_m, rgb);
+    if (observed) {
       m->on_probation = false;
+      m->probation_evidence = {};
     } else if (frame_ - m->first_frame >= p.probation_frames) {
       relabel(slots, m->slot, bg.slot);
-      merge_into(bg, *m, out, "did not move relative to the background");
+      merge_into(bg, *m, out, far_enough ? "its motion did not show in its pixels" : "did not move relative to the background");
     }
   }
+}
+
+// Whether the model's motion since its spawn shows in this frame (observed_motion.h); true for
+// models without spawn evidence (not spawned by motion, or the test is off).
+bool CoFusion::motion_observed(const Model& m, const std::vector<uint8_t>& slots, const float* depth_m,
+                               const uint8_t* rgb) const {
+  if (m.probation_evidence.points.empty()) return true;
+  std::vector<size_t> pixels;
+  for (size_t i = 0; i < slots.size(); ++i)
+    if (slots[i] == m.slot) pixels.push_back(i);
+  const Eigen::Isometry3d motion_world = m.surfels.T_world_model * m.trajectory.front().second.inverse();
+  return slam::motion_observed(m.probation_evidence, pixels, motion_world, depth_m, rgb, intrinsics_, T_world_camera_,
+                               params_.lifecycle.probation_observed);
 }
 
 // Two object models that moved (both of them) as one body over the last merge_window_frames, and
@@ -642,8 +660,8 @@ std::optional<double> CoFusion::rigid_fraction(const std::vector<size_t>& pixels
 // slipped off the object, which now shows up as an outlier region), then re-activates an inactive
 // model that aligns with it; else it becomes a new model.
 void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector<size_t>& pixels,
-                                   const std::vector<int>& slot_pixels, CoFusionFrame& out,
-                                   std::vector<int>& spawned_slots) {
+                                   const float* depth_m, const uint8_t* rgb, const std::vector<int>& slot_pixels,
+                                   CoFusionFrame& out, std::vector<int>& spawned_slots) {
   const LifecycleParams& p = params_.lifecycle;
   const size_t n = size_t(intrinsics_.width) * intrinsics_.height;
   const Eigen::Vector3d centroid = sp.centroid.value_or(Eigen::Vector3d::Zero());
@@ -695,6 +713,7 @@ void CoFusion::spawn_or_reactivate(const SpawnPlan::Spawn& sp, const std::vector
   T_camera_model.translation() = centroid;
   Model& m = create_model(sp.slot, T_world_camera_ * T_camera_model);
   m.probation_start_world = sp.track_start_world;
+  m.probation_evidence = record_spawn(pixels, depth_m, rgb, intrinsics_, T_world_camera_, p.probation_observed);
   m.pixels = static_cast<int>(pixels.size());
   m.last_motion = velocity_guess;
   m.guess_from_centroid_step = true;

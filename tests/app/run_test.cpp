@@ -543,6 +543,19 @@ TEST(RunCommand, SpawnRigidityConfigIsReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
+TEST(RunCommand, ProbationObservedConfigIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  const Result r = run_with_config(dir, "config.json", R"({"lifecycle": {"probation_observed": {"max_still_ratio": 1.5}}})");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.output, HasSubstr("lifecycle.probation_observed")) << r.output;
+  const Result typo = run_with_config(dir, "typo.json", R"({"lifecycle": {"probation_observed": {"point": 100}}})");
+  EXPECT_NE(typo.exit_code, 0);
+  EXPECT_THAT(typo.output, HasSubstr("point")) << typo.output;
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"probation_observed": {"points": 0}}})",
+                                    "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 TEST(RunCommand, KeyframeGainConfigsAreReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   for (const std::string key : {"keyframe_pose_gain", "keyframe_pull_gain"}) {
