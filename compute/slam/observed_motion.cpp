@@ -21,8 +21,9 @@ long project(const Eigen::Vector3f& q, const Intrinsics& k) {
 }
 
 struct Match {
-  long pixel = -1;     // -1: no live depth there
-  bool depth = false;  // within the depth noise
+  long pixel = -1;        // -1: no live depth there
+  bool depth = false;     // within the depth noise
+  bool occluded = false;  // the live surface lies in front of the point, beyond the noise
   float intensity = 0.0f;
 };
 
@@ -37,7 +38,9 @@ Match match(const ObservedPoint& pt, const Eigen::Isometry3f& T_camera_world, co
     m.pixel = -1;
     return m;
   }
-  m.depth = std::abs(z - q.z()) <= depth_sigmas * gpu_layout::depth_noise_sigma_m(q.z());
+  const float tolerance_m = depth_sigmas * gpu_layout::depth_noise_sigma_m(q.z());
+  m.depth = std::abs(z - q.z()) <= tolerance_m;
+  m.occluded = z < q.z() - tolerance_m;
   return m;
 }
 
@@ -82,11 +85,13 @@ ObservedShares observed_shares(const std::vector<ObservedPoint>& points, const E
   }
   // The live frame's exposure relative to the spawn frame's (1 when nothing matched).
   const float gain = live_sum > 0.0 && point_sum > 0.0 ? float(point_sum / live_sum) : 1.0f;
-  // Only points both hypotheses put in view with live depth count: one that the motion keeps in
-  // view (a drift that follows the camera's pan) and standing still does not is no evidence.
+  // Only points both hypotheses put in view with live depth, unoccluded, count: one that the
+  // motion keeps in view (a drift that follows the camera's pan) and standing still does not is no
+  // evidence, nor one that something else hides (a person walking past where it was); a point
+  // is refuted where the frame sees a surface behind it or another colour.
   size_t n = 0, n_moved = 0, n_still = 0;
   for (size_t j = 0; j < points.size(); ++j) {
-    if (moved[j].pixel < 0 || still[j].pixel < 0) continue;
+    if (moved[j].pixel < 0 || still[j].pixel < 0 || moved[j].occluded || still[j].occluded) continue;
     const auto explained = [&](const Match& m) {
       return m.depth && std::abs(gain * m.intensity - points[j].intensity) <= p.max_intensity_diff;
     };

@@ -32,8 +32,11 @@ struct ObservedMotionParams {
   // A model's motion shows when standing still explains at most this fraction of what its motion
   // explains (shares of the points both put in view) ...
   double max_still_ratio = 0.6;
-  // ... and at least this share of the points was in view for both (else nothing is decided).
-  double min_counted = 0.25;
+  // ... and at least this share of the points was in view for both (else nothing is decided):
+  // the motion was tracked to fit the model's pixels while standing still carries the camera's
+  // error, so a ratio over the few points a camera's pan leaves in view where they were (at the
+  // image's border, where depth is least reliable) is too weak a basis.
+  double min_counted = 0.4;
 };
 
 struct ObservedPoint {
@@ -47,7 +50,8 @@ std::vector<ObservedPoint> sample_region_points(const std::vector<size_t>& pixel
                                                 const uint8_t* rgb, const Intrinsics& intrinsics,
                                                 const Eigen::Isometry3d& T_world_camera, int count);
 
-// Of the points that both hypotheses put in view on a pixel with depth (a share `counted` of all):
+// Of the points that both hypotheses put in view on a pixel with depth and not behind the live
+// surface (a share `counted` of all):
 // the share explained after the motion and the share explained where they were.
 struct ObservedShares {
   double moved = 0.0;
