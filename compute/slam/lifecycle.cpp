@@ -231,7 +231,7 @@ void CoFusion::merge_comoving(const std::vector<Model*>& order, std::vector<uint
 }
 
 // The pixels of every connected outlier region (4-connectivity) that is no mover and covers
-// between spawn_keep_area_fraction (spawn_min_area_fraction where that is 0) and
+// between candidate_min_area_fraction() and
 // spawn_max_area_fraction of the image, largest first; `rects` gets their bounding rectangles.
 std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::SegmentationResult& seg, uint8_t outlier,
                                                            std::vector<uint8_t>& slots, std::vector<PixelRect>& rects) {
@@ -259,7 +259,7 @@ std::vector<std::vector<size_t>> CoFusion::outlier_regions(const segmentation::S
       }
     for (size_t c = 0; c < mover.size(); ++c) mover[c] = !seeded[c];
   }
-  const double min_fraction = p.spawn_keep_area_fraction > 0 ? p.spawn_keep_area_fraction : p.spawn_min_area_fraction;
+  const double min_fraction = candidate_min_area_fraction();
   std::vector<int> large_components;
   for (int c = 0; c < int(components_.components.size()); ++c) {
     const auto& info = components_.components[size_t(c)];
@@ -535,7 +535,8 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
       track = (continues ? previous[best_previous - 1].track : CandidateTrack{}).continued(world);
     }
     const bool large = double(pixels.size()) > p.spawn_min_area_fraction * double(n);
-    const bool confirmed_large = double(confirmed) >= min_overlap;
+    const bool at_keep_size = double(pixels.size()) > keep_area_fraction() * double(n);
+    const bool confirmed_large = double(confirmed) >= min_overlap && at_keep_size;
     const bool travelled = !confirmed_large && persisted_and_moved(track, plan.region_rects[r]);
     const bool persistent = confirmed_large || travelled;
     const std::optional<Eigen::Vector3d> previous_centroid =
@@ -554,13 +555,26 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
                     100.0 * double(pixels.size()) / double(n), 100.0 * *rigid);
       out.events.push_back("frame " + std::to_string(frame_) + ": " + what);
     }
-    if (p.hold_spawn_candidates) plan.held.push_back(r);
+    // Only candidates of spawn_keep_area_fraction are held: a smaller one the background never
+    // fused again would stay an outlier region, and a candidate, for as long as it is in view.
+    if (p.hold_spawn_candidates && at_keep_size) plan.held.push_back(r);
     if (spawn_candidates_.size() < 254) {  // a candidate for the next frame
       spawn_candidates_.push_back({centroid, large, track});
       for (size_t i : pixels) spawn_candidate_[i] = static_cast<uint8_t>(spawn_candidates_.size());
     }
   }
   return plan;
+}
+
+double CoFusion::keep_area_fraction() const {
+  const LifecycleParams& p = params_.lifecycle;
+  return p.spawn_keep_area_fraction > 0 ? p.spawn_keep_area_fraction : p.spawn_min_area_fraction;
+}
+
+double CoFusion::candidate_min_area_fraction() const {
+  const LifecycleParams& p = params_.lifecycle;
+  if (p.spawn_persist_frames <= 0 || p.spawn_persist_min_area_fraction <= 0) return keep_area_fraction();
+  return std::min(keep_area_fraction(), p.spawn_persist_min_area_fraction);
 }
 
 CoFusion::CandidateTrack CoFusion::CandidateTrack::continued(const std::optional<Eigen::Vector3d>& world_centroid) const {

@@ -648,6 +648,9 @@ TEST(RunCommand, SpawnEvidenceSettingsAreReadAndChecked) {
   const Result keep = run_with_config(dir, "keep.json", R"({"lifecycle": {"spawn_keep_area_fraction": 0.05}})");
   EXPECT_NE(keep.exit_code, 0);
   EXPECT_THAT(keep.output, HasSubstr("spawn_keep_area_fraction: must be in [0, spawn_min_area_fraction]")) << keep.output;
+  const Result persist = run_with_config(dir, "persist.json", R"({"lifecycle": {"spawn_persist_min_area_fraction": 1.5}})");
+  EXPECT_NE(persist.exit_code, 0);
+  EXPECT_THAT(persist.output, HasSubstr("spawn_persist_min_area_fraction: must be in [0, 1)")) << persist.output;
   const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
   EXPECT_NE(takes.exit_code, 0);
   EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;

@@ -431,6 +431,30 @@ INSTANTIATE_TEST_SUITE_P(Cans, SmallObjectScene,
                                            SmallObjectCase{"SlidingSlowly", "towards_slow.json", 8}),
                          [](const ::testing::TestParamInfo<SmallObjectCase>& c) { return std::string(c.param.name); });
 
+// LifecycleParams::spawn_persist_min_area_fraction (off by default): candidates down to 1 % of the
+// image find towards.json's can 6 frames after its motion starts (frame 15; found at 21, 33 by
+// default, when its region first covers spawn_keep_area_fraction at 31), tracked as well.
+TEST_F(CoFusionScenes, SmallerPersistentCandidatesFindTheCanSoonerSlow) {
+  slam::CoFusionParams params;
+  params.lifecycle.spawn_persist_min_area_fraction = 0.01;
+  const synthetic::SyntheticSequence seq(
+      synthetic::load_scene((source_dir() / "docs" / "validation" / "towards.json").string()), 0);
+  const SceneRun r = run(seq, params);
+  for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
+  EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.01);
+  const int can = 1, start = 15;
+  int found = -1, id = 0;
+  for (int f = 0; f < seq.size() && found < 0; ++f)
+    for (const auto& m : r.frames[size_t(f)].active)
+      if (m.id != 0 && iou(r.gt_masks[size_t(f)], r.frames[size_t(f)].labels, can, m.id) >= 0.5) found = f, id = m.id;
+  std::printf("  the can moves from frame %d, found at %d\n", start, found);
+  ASSERT_GE(found, 0) << "the can was never found";
+  EXPECT_GT(found, start) << "found before it moved";
+  EXPECT_LE(found, start + kMaxDiscoveryFrames);
+  EXPECT_LE(object_errors(seq, r, can, model_trajectory(seq, r, id)).drift_translation_m.rmse, kMaxDriftM);
+  EXPECT_EQ(object_model_ids(r).size(), 1u);
+}
+
 // An unsegmented object that starts slowly drags the camera where the static scene constrains it
 // weakly (docs/validation/crossing.json: box b, a checker box, slides from frame 20 over a table
 // that holds no sideways motion; the default camera follows it by up to 17 mm until it is found at
