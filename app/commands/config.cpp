@@ -182,6 +182,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("spawn_min_overlap", c.spawn_min_overlap)
       .field("spawn_persist_frames", c.spawn_persist_frames)
       .field("spawn_persist_min_area_fraction", c.spawn_persist_min_area_fraction)
+      .field("spawn_persist_mover_clearance_px", c.spawn_persist_mover_clearance_px)
       .field("spawn_persist_min_travel_rel", c.spawn_persist_min_travel_rel)
       .field("spawn_persist_min_straightness", c.spawn_persist_min_straightness)
       .field("spawn_max_velocity_guess_m", c.spawn_max_velocity_guess_m)
@@ -227,6 +228,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
     throw Error(where + ".spawn_keep_area_fraction: must be in [0, spawn_min_area_fraction]");
   if (!(c.spawn_persist_min_area_fraction >= 0 && c.spawn_persist_min_area_fraction < 1))
     throw Error(where + ".spawn_persist_min_area_fraction: must be in [0, 1)");
+  if (c.spawn_persist_mover_clearance_px < 0) throw Error(where + ".spawn_persist_mover_clearance_px: must be >= 0");
   if (c.spawn_persist_frames < 0 || !(c.spawn_persist_min_travel_rel >= 0) ||
       !(c.spawn_persist_min_straightness >= 0 && c.spawn_persist_min_straightness <= 1))
     throw Error(where + ".spawn_persist_*: frames and travel must be >= 0, straightness in [0, 1]");

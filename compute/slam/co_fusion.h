@@ -160,11 +160,15 @@ struct LifecycleParams {
   // candidate for as long as it is in view). A small object's outlier region
   // hovers near its own size while it starts to move (docs/validation/towards.json's can, 1.1-2.7 %
   // of the image: 1.1 % from 4 frames after its start, 1.5 % only after 16; found 6 frames after
-  // its start at 0.01, 18 by default). Off by default: on Bonn crowd, regions of 1-1.5 % beside
-  // the people (parts the detector misses) persist and travel too: at 0.01 a person's model lived
-  // 22 frames, and in --segmentation both mode one was dropped as not rigid (docs/experiments.md,
+  // its start at 0.01, 18 by default). Off by default: on Bonn crowd, parts of people the detector
+  // misses persist and travel too; with the mover clearance below none of them spawns, but the
+  // changed candidates still let a person's model of 2.9 % live 22 frames (docs/experiments.md,
   // "Smaller spawn candidates").
   double spawn_persist_min_area_fraction = 0;
+  // ... such a region under spawn_keep_area_fraction within this many pixels (along a row or a
+  // column) of an excluded mover's pixels (a person's mask) is taken for a part of the mover
+  // that its mask missed, and does not spawn.
+  int spawn_persist_mover_clearance_px = 8;
   double spawn_persist_min_travel_rel = 0.01;
   double spawn_persist_min_straightness = 0.5;
   // A new model's first tracking starts from the region's centroid motion over the last frame
@@ -701,6 +705,8 @@ class CoFusion {
   // LifecycleParams::spawn_keep_area_fraction (spawn_min_area_fraction where that is 0): the
   // smallest region that may confirm a spawn by the paper's size.
   double keep_area_fraction() const;
+  // Whether a pixel of `pixels` lies within reach_px (along its row or column) of a kMoverSlot pixel.
+  bool near_mover(const std::vector<size_t>& pixels, const std::vector<uint8_t>& slots, int reach_px) const;
   // The smallest outlier region that is a spawn candidate (spawn_persist_min_area_fraction where
   // set, else keep_area_fraction()).
   double candidate_min_area_fraction() const;

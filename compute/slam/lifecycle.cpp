@@ -541,7 +541,10 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     const bool persistent = confirmed_large || travelled;
     const std::optional<Eigen::Vector3d> previous_centroid =
         best_previous > 0 ? previous[best_previous - 1].centroid : std::nullopt;
-    const bool eligible = frame_ >= p.warmup_frames && camera_steady && persistent &&
+    // A region under the keep size beside an excluded mover (a person) is taken for a part of it
+    // that the mask missed.
+    const bool beside_mover = !at_keep_size && persistent && near_mover(pixels, slots, p.spawn_persist_mover_clearance_px);
+    const bool eligible = frame_ >= p.warmup_frames && camera_steady && persistent && !beside_mover &&
                           active_count + int(plan.spawns.size()) < p.max_active_models;
     const std::optional<double> rigid =
         eligible ? rigid_fraction(pixels, depth_m, centroid, previous_centroid) : std::nullopt;
@@ -564,6 +567,20 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
     }
   }
   return plan;
+}
+
+bool CoFusion::near_mover(const std::vector<size_t>& pixels, const std::vector<uint8_t>& slots, int reach_px) const {
+  const int width = intrinsics_.width, height = intrinsics_.height;
+  for (size_t i : pixels) {
+    const int x = int(i % size_t(width)), y = int(i / size_t(width));
+    for (int d = 1; d <= reach_px; ++d) {
+      if ((x - d >= 0 && slots[i - size_t(d)] == kMoverSlot) || (x + d < width && slots[i + size_t(d)] == kMoverSlot) ||
+          (y - d >= 0 && slots[i - size_t(d) * size_t(width)] == kMoverSlot) ||
+          (y + d < height && slots[i + size_t(d) * size_t(width)] == kMoverSlot))
+        return true;
+    }
+  }
+  return false;
 }
 
 double CoFusion::keep_area_fraction() const {

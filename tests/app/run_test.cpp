@@ -651,6 +651,9 @@ TEST(RunCommand, SpawnEvidenceSettingsAreReadAndChecked) {
   const Result persist = run_with_config(dir, "persist.json", R"({"lifecycle": {"spawn_persist_min_area_fraction": 1.5}})");
   EXPECT_NE(persist.exit_code, 0);
   EXPECT_THAT(persist.output, HasSubstr("spawn_persist_min_area_fraction: must be in [0, 1)")) << persist.output;
+  const Result clearance = run_with_config(dir, "clearance.json", R"({"lifecycle": {"spawn_persist_mover_clearance_px": -1}})");
+  EXPECT_NE(clearance.exit_code, 0);
+  EXPECT_THAT(clearance.output, HasSubstr("spawn_persist_mover_clearance_px: must be >= 0")) << clearance.output;
   const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
   EXPECT_NE(takes.exit_code, 0);
   EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
