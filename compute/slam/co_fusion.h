@@ -160,11 +160,10 @@ struct LifecycleParams {
   // candidate for as long as it is in view). A small object's outlier region
   // hovers near its own size while it starts to move (docs/validation/towards.json's can, 1.1-2.7 %
   // of the image: 1.1 % from 4 frames after its start, 1.5 % only after 16; found 6 frames after
-  // its start at 0.01, 18 by default). Off by default: on Bonn crowd, parts of people the detector
-  // misses persist and travel too; with the mover clearance below none of them spawns, but the
-  // changed candidates still let a person's model of 2.9 % live 22 frames (docs/experiments.md,
-  // "Smaller spawn candidates").
-  double spawn_persist_min_area_fraction = 0;
+  // its start at 0.01, 18 at 0.015). Parts of people the detector misses persist and travel too:
+  // the mover clearance below keeps them from spawning (docs/experiments.md, "Smaller spawn
+  // candidates").
+  double spawn_persist_min_area_fraction = 0.01;
   // ... such a region under spawn_keep_area_fraction within this many pixels (along a row or a
   // column) of an excluded mover's pixels (a person's mask) is taken for a part of the mover
   // that its mask missed, and does not spawn.

@@ -385,17 +385,19 @@ INSTANTIATE_TEST_SUITE_P(NoiseSeeds, ValidationScene, ::testing::Values(0u, 4u),
 
 // An object under the paper's spawn size is found from its outlier region's persistence and
 // steady travel (LifecycleParams::spawn_persist_*): never without them. docs/validation/towards.json:
-// a can slides towards the camera from frame 15 and back, 1.1-2.7 % of the image; it covers
-// spawn_keep_area_fraction of the image from frame 30 and is found at 33. towards_slow.json: the
-// same can at about 3 mm per frame, 1.1-1.8 % of the image; covers it from 61, found at 68, and
-// kept (its probation counts the region's travel before the spawn; merged back after 6 frames
-// without). Bounds: found within the allowance of covering spawn_keep_area_fraction (issue 23's
-// 6 frames; for the slow can 8, its measured 7 plus one: its region reaches that size later than
-// its mask, and issue 23's count from the start of its motion is not met by it), drift within
-// 5 mm, IoU 0.9 after discovery, one object model, camera within 1 cm.
+// a can slides towards the camera from frame 15 and back, 1.1-2.7 % of the image; its outlier
+// region covers 1.1 % of the image from frame 19 and it is found at 21 (33 while candidates had to
+// cover spawn_keep_area_fraction, 1.5 %, which the region reached at 31: spawn_persist_min_area_fraction).
+// towards_slow.json: the same can at about 3 mm per frame, 1.1-1.8 % of the image; found at 37 (68
+// before), and kept (its probation counts the region's travel before the spawn; merged back after
+// 6 frames without). Bounds: found within the allowance after its motion starts (issue 23's 6
+// frames; for the slow can 24, its measured 22 plus two: its outlier region is a rim a few pixels
+// wide until it has moved about 2 cm, and issue 23's count is not met by it), drift within 5 mm,
+// IoU 0.9 after discovery, one object model, camera within 1 cm.
 struct SmallObjectCase {
   const char* name;
   const char* file;
+  int motion_start_frame;  // the can's first keyframe after rest
   int allowance_frames;
 };
 class SmallObjectScene : public CoFusionScenes, public ::testing::WithParamInterface<SmallObjectCase> {};
@@ -407,17 +409,15 @@ TEST_P(SmallObjectScene, UnderThePaperSizeIsFoundSlow) {
   for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.01);
   const int can = 1;
-  const int keep_pixels = int(slam::LifecycleParams{}.spawn_keep_area_fraction * double(r.gt_masks[0].total()));
-  int covers = 0;
-  while (covers < seq.size() && cv::countNonZero(r.gt_masks[size_t(covers)] == can) < keep_pixels) ++covers;
+  const int start = GetParam().motion_start_frame;
   int found = -1, id = 0;
-  for (int f = covers; f < seq.size() && found < 0; ++f)
+  for (int f = 0; f < seq.size() && found < 0; ++f)
     for (const auto& m : r.frames[size_t(f)].active)
       if (m.id != 0 && iou(r.gt_masks[size_t(f)], r.frames[size_t(f)].labels, can, m.id) >= 0.5) found = f, id = m.id;
-  std::printf("  the can covers %.1f%% of the image from frame %d, found at %d\n",
-              100.0 * slam::LifecycleParams{}.spawn_keep_area_fraction, covers, found);
+  std::printf("  the can moves from frame %d, found at %d\n", start, found);
   ASSERT_GE(found, 0) << "the can was never found";
-  EXPECT_LE(found, covers + GetParam().allowance_frames);
+  EXPECT_GT(found, start) << "found before it moved";
+  EXPECT_LE(found, start + GetParam().allowance_frames);
   const double drift_m = object_errors(seq, r, can, model_trajectory(seq, r, id)).drift_translation_m.rmse;
   std::printf("  drift %.1f mm RMSE\n", 1e3 * drift_m);
   EXPECT_LE(drift_m, kMaxDriftM);
@@ -427,33 +427,9 @@ TEST_P(SmallObjectScene, UnderThePaperSizeIsFoundSlow) {
   EXPECT_EQ(object_model_ids(r).size(), 1u);
 }
 INSTANTIATE_TEST_SUITE_P(Cans, SmallObjectScene,
-                         ::testing::Values(SmallObjectCase{"Sliding", "towards.json", kMaxDiscoveryFrames},
-                                           SmallObjectCase{"SlidingSlowly", "towards_slow.json", 8}),
+                         ::testing::Values(SmallObjectCase{"Sliding", "towards.json", 15, kMaxDiscoveryFrames},
+                                           SmallObjectCase{"SlidingSlowly", "towards_slow.json", 15, 24}),
                          [](const ::testing::TestParamInfo<SmallObjectCase>& c) { return std::string(c.param.name); });
-
-// LifecycleParams::spawn_persist_min_area_fraction (off by default): candidates down to 1 % of the
-// image find towards.json's can 6 frames after its motion starts (frame 15; found at 21, 33 by
-// default, when its region first covers spawn_keep_area_fraction at 31), tracked as well.
-TEST_F(CoFusionScenes, SmallerPersistentCandidatesFindTheCanSoonerSlow) {
-  slam::CoFusionParams params;
-  params.lifecycle.spawn_persist_min_area_fraction = 0.01;
-  const synthetic::SyntheticSequence seq(
-      synthetic::load_scene((source_dir() / "docs" / "validation" / "towards.json").string()), 0);
-  const SceneRun r = run(seq, params);
-  for (const auto& e : r.events) std::printf("  %s\n", e.c_str());
-  EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), r.camera).translation_m.rmse, 0.01);
-  const int can = 1, start = 15;
-  int found = -1, id = 0;
-  for (int f = 0; f < seq.size() && found < 0; ++f)
-    for (const auto& m : r.frames[size_t(f)].active)
-      if (m.id != 0 && iou(r.gt_masks[size_t(f)], r.frames[size_t(f)].labels, can, m.id) >= 0.5) found = f, id = m.id;
-  std::printf("  the can moves from frame %d, found at %d\n", start, found);
-  ASSERT_GE(found, 0) << "the can was never found";
-  EXPECT_GT(found, start) << "found before it moved";
-  EXPECT_LE(found, start + kMaxDiscoveryFrames);
-  EXPECT_LE(object_errors(seq, r, can, model_trajectory(seq, r, id)).drift_translation_m.rmse, kMaxDriftM);
-  EXPECT_EQ(object_model_ids(r).size(), 1u);
-}
 
 // An unsegmented object that starts slowly drags the camera where the static scene constrains it
 // weakly (docs/validation/crossing.json: box b, a checker box, slides from frame 20 over a table
