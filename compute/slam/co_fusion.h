@@ -153,7 +153,7 @@ struct LifecycleParams {
   // estimate was off), but its centroid only jitters as the region's outline changes. 0 frames =
   // off (only the paper's size).
   int spawn_persist_frames = 3;
-  // An option: such regions from this fraction of the image on; 0 = spawn_keep_area_fraction (the
+  // ... such regions from this fraction of the image on; 0 = spawn_keep_area_fraction (the
   // smaller of the two counts). A region under spawn_keep_area_fraction spawns only by persisting
   // and travelling, never by the paper's size and its hysteresis, and is not held
   // (hold_spawn_candidates: a small static region the background never fused again would stay a
