@@ -192,6 +192,8 @@ nlohmann::json to_json(const ObjectsEvaluation& e) {
   j["objects"] = nlohmann::json::array();
   for (const auto& p : e.pairs) {
     const auto& r = p.errors;
+    nlohmann::json series = nlohmann::json::array();  // [timestamp_s, drift m, drift deg] per matched stamp
+    for (const auto& d : r.drift_series) series.push_back({d.timestamp_s, d.translation_m, d.rotation_deg});
     j["objects"].push_back({{"model_id", p.est_id},
                             {"gt_id", p.gt_id},
                             {"model_file", p.est_file.string()},
@@ -203,7 +205,8 @@ nlohmann::json to_json(const ObjectsEvaluation& e) {
                             {"relative_translation_m", to_json(r.relative_translation_m)},
                             {"relative_rotation_deg", to_json(r.relative_rotation_deg)},
                             {"drift_translation_m", to_json(r.drift_translation_m)},
-                            {"drift_rotation_deg", to_json(r.drift_rotation_deg)}});
+                            {"drift_rotation_deg", to_json(r.drift_rotation_deg)},
+                            {"drift_series", series}});
   }
   j["drift_world"] = e.drift_world;
   j["unmatched_model_ids"] = e.unmatched_est_ids;

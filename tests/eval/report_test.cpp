@@ -201,6 +201,10 @@ TEST(ObjectsReport, DriftSeriesAndItsPlot) {
   for (const auto& s : errors.drift_series) max_m = std::max(max_m, s.translation_m);
   EXPECT_DOUBLE_EQ(max_m, errors.drift_translation_m.max);
   EXPECT_GT(max_m, 0.005);  // the slip shows (the tracked-point fit halves it)
+  const nlohmann::json series = to_json(e)["objects"][0]["drift_series"];  // `eval objects --json`
+  ASSERT_EQ(series.size(), errors.drift_series.size());
+  EXPECT_DOUBLE_EQ(series.back()[0].get<double>(), errors.drift_series.back().timestamp_s);
+  EXPECT_DOUBLE_EQ(series.back()[1].get<double>(), errors.drift_series.back().translation_m);
 
   write_drift_plots(e, dir / "plots");
   const cv::Mat png = cv::imread((dir / "plots" / "drift-model-3.png").string(), cv::IMREAD_COLOR);
