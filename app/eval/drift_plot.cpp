@@ -17,6 +17,7 @@ namespace {
 
 const cv::Scalar kTranslationColour(200, 80, 0);  // BGR: blue
 const cv::Scalar kRotationColour(0, 0, 200);      // red
+const cv::Scalar kCameraRelativeColour(60, 160, 0);  // green: translation relative to the camera
 const cv::Scalar kAxisColour(60, 60, 60);
 
 // A "nice" upper bound of an axis: 1, 2 or 5 times a power of ten, at least `max_value`.
@@ -50,6 +51,7 @@ cv::Mat plot_drift(const ObjectPairResult& pair, const DriftPlotParams& p) {
   for (const auto& s : series) {
     t_max = std::max(t_max, s.timestamp_s - t0);
     mm_max = std::max(mm_max, 1000.0 * s.translation_m);
+    if (std::isfinite(s.camera_relative_m)) mm_max = std::max(mm_max, 1000.0 * s.camera_relative_m);
     deg_max = std::max(deg_max, s.rotation_deg);
   }
   const double t_top = t_max > 0 ? t_max : 1.0, mm_top = axis_top(mm_max), deg_top = axis_top(deg_max);
@@ -58,6 +60,10 @@ cv::Mat plot_drift(const ObjectPairResult& pair, const DriftPlotParams& p) {
                      area.y + area.height - int(std::lround(std::min(value / top, 1.0) * area.height)));
   };
   for (size_t i = 1; i < series.size(); ++i) {
+    const double before_m = series[i - 1].camera_relative_m, now_m = series[i].camera_relative_m;
+    if (std::isfinite(before_m) && std::isfinite(now_m))
+      cv::line(img, at(series[i - 1].timestamp_s, 1000.0 * before_m, mm_top), at(series[i].timestamp_s, 1000.0 * now_m, mm_top),
+               kCameraRelativeColour, 1, cv::LINE_AA);
     cv::line(img, at(series[i - 1].timestamp_s, 1000.0 * series[i - 1].translation_m, mm_top),
              at(series[i].timestamp_s, 1000.0 * series[i].translation_m, mm_top), kTranslationColour, 2, cv::LINE_AA);
     cv::line(img, at(series[i - 1].timestamp_s, series[i - 1].rotation_deg, deg_top),
@@ -72,7 +78,13 @@ cv::Mat plot_drift(const ObjectPairResult& pair, const DriftPlotParams& p) {
   put(img, number(t_max) + " s", {area.x + area.width - 30, area.y + area.height + 16}, kAxisColour);
   char title[160];
   std::snprintf(title, sizeof title, "model %d vs object %d: drift since first seen (translation max %.1f mm, rotation max %.1f deg)",
-                pair.est_id, pair.gt_id, mm_max, deg_max);
+                pair.est_id, pair.gt_id, 1000.0 * pair.errors.drift_translation_m.max, deg_max);
+  if (const ErrorStats& relative = pair.errors.camera_relative_drift_m; relative.count > 0) {
+    char legend[96];
+    std::snprintf(legend, sizeof legend, "translation relative to the camera: max %.1f mm", 1000.0 * relative.max);
+    const cv::Size size = cv::getTextSize(legend, cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, &baseline);
+    put(img, legend, {area.x + (area.width - size.width) / 2, area.y - 6}, kCameraRelativeColour);
+  }
   put(img, title, {area.x, p.height_px - 10}, kAxisColour);
   return img;
 }

@@ -122,6 +122,11 @@ ObjectsEvaluation evaluate_object_dirs(const std::filesystem::path& gt_dir, cons
     }
     out.drift_world = "cameras";
   }
+  // The same cameras give each object's drift relative to the camera (ObjectTrajectoryErrors 5).
+  if (!params.trajectory.cameras && std::filesystem::is_regular_file(gt_camera) &&
+      std::filesystem::is_regular_file(est_camera))
+    params.trajectory.cameras = std::make_shared<const CameraTrajectories>(
+        CameraTrajectories{read_tum_trajectory(gt_camera), read_tum_trajectory(est_camera)});
   std::map<std::pair<int, int>, ObjectTrajectoryErrors> computed;
   const std::map<int, int> pairs =  // est id -> gt id
       est_to_gt ? pairs_from_mapping(*est_to_gt, {gt_dir, gt_files, gt}, {est_dir, est_files, est}, params, computed)

@@ -192,8 +192,13 @@ nlohmann::json to_json(const ObjectsEvaluation& e) {
   j["objects"] = nlohmann::json::array();
   for (const auto& p : e.pairs) {
     const auto& r = p.errors;
-    nlohmann::json series = nlohmann::json::array();  // [timestamp_s, drift m, drift deg] per matched stamp
-    for (const auto& d : r.drift_series) series.push_back({d.timestamp_s, d.translation_m, d.rotation_deg});
+    // [timestamp_s, drift m, drift deg(, drift relative to the camera m)] per matched stamp
+    nlohmann::json series = nlohmann::json::array();
+    for (const auto& d : r.drift_series) {
+      nlohmann::json sample = {d.timestamp_s, d.translation_m, d.rotation_deg};
+      if (std::isfinite(d.camera_relative_m)) sample.push_back(d.camera_relative_m);
+      series.push_back(std::move(sample));
+    }
     j["objects"].push_back({{"model_id", p.est_id},
                             {"gt_id", p.gt_id},
                             {"model_file", p.est_file.string()},
@@ -206,6 +211,7 @@ nlohmann::json to_json(const ObjectsEvaluation& e) {
                             {"relative_rotation_deg", to_json(r.relative_rotation_deg)},
                             {"drift_translation_m", to_json(r.drift_translation_m)},
                             {"drift_rotation_deg", to_json(r.drift_rotation_deg)},
+                            {"camera_relative_drift_m", to_json(r.camera_relative_drift_m)},
                             {"drift_series", series}});
   }
   j["drift_world"] = e.drift_world;
@@ -258,11 +264,16 @@ std::string to_text(const ObjectsEvaluation& e) {
     char buf[480];
     std::snprintf(buf, sizeof buf,
                   "object model %d gt %d pairs %zu origin_ate_rmse_m %.6f tracked_point_ate_rmse_m %.6f "
-                  "relative_trans_rmse_m %.6f relative_rot_rmse_deg %.6f drift_trans_max_m %.6f drift_rot_max_deg %.6f\n",
+                  "relative_trans_rmse_m %.6f relative_rot_rmse_deg %.6f drift_trans_max_m %.6f drift_rot_max_deg %.6f",
                   p.est_id, p.gt_id, p.errors.origin_ate.translation_m.count, p.errors.origin_ate.translation_m.rmse,
                   p.errors.tracked_point_m.rmse, p.errors.relative_translation_m.rmse, p.errors.relative_rotation_deg.rmse,
                   p.errors.drift_translation_m.max, p.errors.drift_rotation_deg.max);
     out += buf;
+    if (p.errors.camera_relative_drift_m.count > 0) {
+      std::snprintf(buf, sizeof buf, " camera_relative_drift_max_m %.6f", p.errors.camera_relative_drift_m.max);
+      out += buf;
+    }
+    out += "\n";
   }
   out += "drift_world " + e.drift_world + "\n";
   out += "unmatched_models";

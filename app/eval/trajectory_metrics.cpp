@@ -346,6 +346,46 @@ Pose align_by_poses(const Trajectory& gt_in, const Trajectory& est_in, const Ass
   return T;
 }
 
+namespace {
+
+// The pose of a sorted trajectory nearest to t_s, or null when none lies within max_dt_s.
+const Pose* nearest_pose(const Trajectory& sorted, double t_s, double max_dt_s) {
+  const auto after = std::lower_bound(sorted.begin(), sorted.end(), t_s,
+                                      [](const TimedPose& p, double t) { return p.timestamp_s < t; });
+  const TimedPose* best = nullptr;
+  if (after != sorted.end()) best = &*after;
+  if (after != sorted.begin() && (!best || t_s - std::prev(after)->timestamp_s < best->timestamp_s - t_s))
+    best = &*std::prev(after);
+  return best && std::abs(best->timestamp_s - t_s) <= max_dt_s ? &best->T_world_x : nullptr;
+}
+
+// ObjectTrajectoryErrors (5): the object's centre at the first stamp with both cameras, in that
+// camera, carried by the model's pose in the camera, against its true place in the true camera.
+void add_camera_relative_drift(const Trajectory& gt, const Trajectory& est, const std::vector<TimestampMatch>& matches,
+                               const CameraTrajectories& cameras_in, const AssociationParams& association,
+                               ObjectTrajectoryErrors& out) {
+  const Trajectory gt_camera = sorted_unique(cameras_in.gt), est_camera = sorted_unique(cameras_in.est);
+  std::optional<Eigen::Vector3d> centre_in_model;  // the object's centre at the first stamp, in model coordinates
+  std::vector<double> drift_m;
+  for (std::size_t k = 0; k < matches.size(); ++k) {
+    const TimedPose& g = gt[matches[k].first];
+    const TimedPose& e = est[matches[k].second];
+    const Pose* gc = nearest_pose(gt_camera, g.timestamp_s, association.max_difference_s);
+    const Pose* ec = nearest_pose(est_camera, e.timestamp_s, association.max_difference_s);
+    if (!gc || !ec) continue;
+    const Pose T_camera_model = ec->inverse() * e.T_world_x;
+    const Eigen::Vector3d centre_in_camera = (gc->inverse() * g.T_world_x).translation();
+    if (!centre_in_model) centre_in_model = T_camera_model.inverse() * centre_in_camera;
+    drift_m.push_back((T_camera_model * *centre_in_model - centre_in_camera).norm());
+    out.drift_series[k].camera_relative_m = drift_m.back();
+  }
+  if (drift_m.size() > 1) drift_m.erase(drift_m.begin());  // the first is zero by construction, as in (4)
+  else drift_m.clear();
+  out.camera_relative_drift_m = summarize_errors(drift_m);
+}
+
+}  // namespace
+
 ObjectTrajectoryErrors compute_object_trajectory_errors(const Trajectory& gt_object_in, const Trajectory& est_model_in,
                                                         const ObjectTrajectoryParams& params) {
   ObjectTrajectoryErrors out;
@@ -417,6 +457,7 @@ ObjectTrajectoryErrors compute_object_trajectory_errors(const Trajectory& gt_obj
   }
   out.drift_translation_m = summarize_errors(drift_m);
   out.drift_rotation_deg = summarize_errors(drift_deg);
+  if (params.cameras) add_camera_relative_drift(gt, est, matches, *params.cameras, params.association, out);
   return out;
 }
 

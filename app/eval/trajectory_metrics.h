@@ -11,6 +11,8 @@
 // Object trajectories (T_world_model from the system vs T_world_object ground truth) are compared by
 // compute_object_trajectory_errors(); see ObjectTrajectoryErrors for what each measure assumes.
 #include <cstddef>
+#include <limits>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -129,13 +131,29 @@ struct ObjectTrajectoryErrors {
   ErrorStats drift_translation_m;
   ErrorStats drift_rotation_deg;
   bool drift_in_given_world = false;  // W was given (else (2)'s A)
+  // 5. Drift relative to the camera, where both camera trajectories are given
+  //    (ObjectTrajectoryParams::cameras): (4) with the object's pose in the camera at each stamp,
+  //    T_camera_model = T_world_camera^-1 T_world_model against T_world_camera^-1 T_world_object,
+  //    in place of the world poses (no alignment needed). What is left of (4) once the camera's
+  //    own errors are taken out: the object's tracking. Where (4) is large and this small, the
+  //    camera carried the object off (a moving object the camera followed before it was found
+  //    shifts every model found meanwhile). Stamps without a camera pose on either side are left
+  //    out; count 0 when no cameras are given.
+  ErrorStats camera_relative_drift_m;
   // (4) per matched stamp, the first (zero drift) included: what `eval objects --plot` draws.
   struct DriftSample {
     double timestamp_s = 0;  // the ground truth's
     double translation_m = 0;
     double rotation_deg = 0;
+    double camera_relative_m = std::numeric_limits<double>::quiet_NaN();  // (5); NaN where unknown
   };
   std::vector<DriftSample> drift_series;
+};
+
+// The ground-truth and estimated camera trajectories (T_world_camera), for (5) above.
+struct CameraTrajectories {
+  Trajectory gt;
+  Trajectory est;
 };
 
 struct ObjectTrajectoryParams {
@@ -143,6 +161,8 @@ struct ObjectTrajectoryParams {
   // Maps the estimate's world into the ground truth's, e.g. the camera trajectories' ATE alignment
   // (ObjectTrajectoryErrors' drift is measured in it). Empty: the tracked-point fit's alignment.
   std::optional<Pose> T_gt_est_world;
+  // Both cameras' trajectories, for the drift relative to the camera; null: not computed.
+  std::shared_ptr<const CameraTrajectories> cameras;
   int max_iterations = 100;            // tracked-point Levenberg-Marquardt iterations
   double convergence_rmse_m = 1e-12;   // stop when an iteration improves the RMSE by less than this
 };

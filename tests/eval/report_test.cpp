@@ -171,6 +171,12 @@ TEST(ObjectsReport, DriftInTheCamerasWorld) {
   EXPECT_LT(e.pairs[0].errors.drift_translation_m.max, 1e-5);
   EXPECT_LT(e.pairs[0].errors.drift_rotation_deg.max, 1e-3);
   EXPECT_EQ(to_json(e)["drift_world"], "cameras");
+  // The same cameras give the drift relative to the camera: none here (the model's pose in the
+  // camera is exact), a fourth number per sample in the JSON series and a field in the text.
+  EXPECT_EQ(e.pairs[0].errors.camera_relative_drift_m.count, e.pairs[0].errors.drift_translation_m.count);
+  EXPECT_LT(e.pairs[0].errors.camera_relative_drift_m.max, 1e-6);
+  EXPECT_EQ(to_json(e)["objects"][0]["drift_series"][1].size(), 4u);
+  EXPECT_NE(to_text(e).find(" camera_relative_drift_max_m 0.000000\n"), std::string::npos) << to_text(e);
 
   std::ofstream(dir / "est" / "camera.txt") << "1.0 not a pose\n";
   const std::string msg = test::error_of([&] { evaluate_object_dirs(dir / "gt", dir / "est", std::nullopt); });
@@ -203,6 +209,7 @@ TEST(ObjectsReport, DriftSeriesAndItsPlot) {
   EXPECT_GT(max_m, 0.005);  // the slip shows (the tracked-point fit halves it)
   const nlohmann::json series = to_json(e)["objects"][0]["drift_series"];  // `eval objects --json`
   ASSERT_EQ(series.size(), errors.drift_series.size());
+  EXPECT_EQ(series.back().size(), 3u) << "no cameras, no drift relative to the camera";
   EXPECT_DOUBLE_EQ(series.back()[0].get<double>(), errors.drift_series.back().timestamp_s);
   EXPECT_DOUBLE_EQ(series.back()[1].get<double>(), errors.drift_series.back().translation_m);
 

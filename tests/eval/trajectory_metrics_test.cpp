@@ -397,6 +397,52 @@ TEST(ObjectTrajectory, UnobservableTurnAboutTheCentreIsNoTranslationDrift) {
   EXPECT_NEAR(r.drift_rotation_deg.max, 0.59 * 180 / std::numbers::pi, 1e-3);
 }
 
+// The camera's estimate slips 15 mm sideways while a model is found (frame 20) and comes back at
+// frame 25; the model's pose in the camera is exact, so its world pose carries the camera's slip:
+// the world drift shows the slip from frame 25 on, the drift relative to the camera is zero. Then
+// the model itself slips 6 mm at frame 40 with the camera exact: both show it. Camera stamps
+// missing on either side leave those stamps out of (5) only.
+TEST(ObjectTrajectory, DriftRelativeToTheCameraSeparatesTheCamerasShare) {
+  Trajectory gt_object, gt_camera;
+  for (int i = 20; i < 60; ++i) gt_object.push_back({i / 30.0, make_pose(0.01 * i, 0, 0.2, Eigen::Vector3d(0.01 * i, 0.3, 0.8))});
+  for (int i = 0; i < 60; ++i) gt_camera.push_back({i / 30.0, make_pose(0.1, -0.2, 0.003 * i, Eigen::Vector3d(0.002 * i, -0.5, 1.2))});
+  const Pose A = make_pose(0.4, 0.3, -0.6, Eigen::Vector3d(0.2, -0.3, 0.1));  // ground truth's world -> the estimate's
+  const Pose X = make_pose(-0.3, 0.5, 0.2, Eigen::Vector3d(0.03, -0.05, 0.02));  // object frame -> model frame
+  Trajectory est_camera = gt_camera, est_model;
+  for (auto& p : est_camera) {
+    p.T_world_x = A * p.T_world_x;
+    if (p.timestamp_s < 25 / 30.0 - 1e-9) p.T_world_x.translation() += Eigen::Vector3d(0.015, 0, 0);  // the slip
+  }
+  for (std::size_t k = 0; k < gt_object.size(); ++k) {
+    const Pose& T_world_camera = est_camera[k + 20].T_world_x;
+    Pose T_camera_model = gt_camera[k + 20].T_world_x.inverse() * gt_object[k].T_world_x * X;
+    if (k + 20 >= 40) T_camera_model.translation() += Eigen::Vector3d(0, 0.006, 0);  // the model's own slip
+    est_model.push_back({gt_object[k].timestamp_s, T_world_camera * T_camera_model});
+  }
+  ObjectTrajectoryParams params;
+  params.T_gt_est_world = A.inverse();
+  params.cameras = std::make_shared<const CameraTrajectories>(CameraTrajectories{gt_camera, est_camera});
+  const auto r = compute_object_trajectory_errors(gt_object, est_model, params);
+  ASSERT_EQ(r.drift_series.size(), 40u);
+  EXPECT_EQ(r.camera_relative_drift_m.count, 39u);
+  EXPECT_NEAR(r.drift_series[10].translation_m, 0.015, 1e-6);     // frame 30: the camera's slip, carried
+  EXPECT_NEAR(r.drift_series[10].camera_relative_m, 0.0, 1e-9);   // ... not the object's tracking
+  EXPECT_NEAR(r.drift_series[30].camera_relative_m, 0.006, 1e-9);  // frame 50: the model's own slip
+  EXPECT_NEAR(r.camera_relative_drift_m.max, 0.006, 1e-9);
+  EXPECT_GE(r.drift_translation_m.max, 0.015 - 1e-6);
+
+  // Without cameras (5) is not computed; without the estimate's camera for frames 30-34, only those are left out.
+  EXPECT_EQ(compute_object_trajectory_errors(gt_object, est_model).camera_relative_drift_m.count, 0u);
+  EXPECT_TRUE(std::isnan(compute_object_trajectory_errors(gt_object, est_model).drift_series[5].camera_relative_m));
+  Trajectory gappy = est_camera;
+  gappy.erase(gappy.begin() + 30, gappy.begin() + 35);
+  params.cameras = std::make_shared<const CameraTrajectories>(CameraTrajectories{gt_camera, gappy});
+  const auto g = compute_object_trajectory_errors(gt_object, est_model, params);
+  EXPECT_EQ(g.camera_relative_drift_m.count, 34u);
+  EXPECT_TRUE(std::isnan(g.drift_series[12].camera_relative_m));
+  EXPECT_NEAR(g.camera_relative_drift_m.max, 0.006, 1e-9);
+}
+
 TEST(ObjectTrajectory, RelativeMotionSeesTranslationNoise) {
   const Trajectory gt = wobbly_trajectory(100, 30);
   Trajectory est = gt;
