@@ -397,6 +397,20 @@ PipelineConfig load_config(const std::filesystem::path& path) {
                               "min_fit_ratio, replaced_motion_scale, keyframe_pose_gain and keyframe_pull_gain in "
                               "[0, 1], agreeing_frames and keyframe_pull_min_inliers >= 0");
   });
+  s.section("retrack", file + ": retrack", [&](Section& q) {
+    auto& r = config.retrack;
+    q.field("min_taken_fraction", r.min_taken_fraction)
+        .field("min_region_fraction", r.min_region_fraction)
+        .field("surge_factor", r.surge_factor)
+        .field("baseline_frames", r.baseline_frames)
+        .field("max_correction_m", r.max_correction_m)
+        .field("max_correction_deg", r.max_correction_deg);
+    if (!(r.min_taken_fraction >= 0 && r.min_taken_fraction <= 1) ||
+        !(r.min_region_fraction >= 0 && r.min_region_fraction <= 1) || !(r.surge_factor >= 0) ||
+        r.baseline_frames < 0 || !(r.max_correction_m >= 0) || !(r.max_correction_deg >= 0))
+      throw Error(q.where() + ": min_taken_fraction and min_region_fraction must be in [0, 1], surge_factor, "
+                              "baseline_frames and the max_correction_* >= 0");
+  });
   s.section("rolling_shutter", file + ": rolling_shutter", [&](Section& q) {
     double readout_s = config.slam.rolling_shutter.colour_readout_s.value_or(0.0);
     q.field("colour_readout_s", readout_s).field("nominal_frame_interval_s", config.slam.rolling_shutter.nominal_frame_interval_s);

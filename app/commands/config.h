@@ -21,6 +21,7 @@ struct PipelineConfig {
   slam::LifecycleParams lifecycle;
   slam::RestParams rest;
   slam::CameraCheckParams camera_check;
+  slam::CameraRetrackParams retrack;
   slam::SemanticParams semantic;  // thresholds only: mode and classes come from the command line
   bool motion_segmentation = true;
 
@@ -34,6 +35,7 @@ struct PipelineConfig {
     p.lifecycle = lifecycle;
     p.rest = rest;
     p.camera_check = camera_check;
+    p.retrack = retrack;
     p.semantic = semantic;
     p.motion_segmentation = motion_segmentation;
     return p;

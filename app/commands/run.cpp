@@ -158,6 +158,7 @@ struct SummaryInputs {
   const std::vector<int>& failed_frames;
   const std::vector<int>& recovered_frames;
   const std::vector<int>& refused_frames;
+  const std::vector<int>& retracked_frames;
   const std::optional<CameraAccuracy>& accuracy;
   const std::vector<slam::ModelSnapshot>& snapshots;
   const std::vector<SurfelCloud>& all_models;  // empty when the device could not hand them back
@@ -185,7 +186,8 @@ nlohmann::ordered_json summary_json(const SummaryInputs& f) {
   for (const auto& stage : f.times.stages()) summary["stages_ms"][stage] = f.times.mean(stage);
   summary["tracking_failures"] = f.failed_frames;
   summary["camera"] = {{"lost_frames", f.failed_frames.size()}, {"recoveries", f.recovered_frames.size()},
-                       {"recovered_at", f.recovered_frames}, {"refused_frames", f.refused_frames}};
+                       {"recovered_at", f.recovered_frames}, {"refused_frames", f.refused_frames},
+                       {"retracked_frames", f.retracked_frames}};
   if (f.accuracy) summary["camera"]["ate_rmse_m"] = f.accuracy->ate_rmse_m;
   summary["models"] = nlohmann::json::array();
   for (size_t k = 0; k < f.snapshots.size(); ++k) {
@@ -395,6 +397,7 @@ class RunSession {
     } else if (r.camera_state == slam::CameraState::kRefused) {
       refused_frames_.push_back(frame.index);
     }
+    if (r.camera_retracked) retracked_frames_.push_back(frame.index);
     for (const auto& e : r.events) {
       progress_.message(e);
       events_.push_back(e);
@@ -540,7 +543,7 @@ class RunSession {
     if (!o_.screenshot.empty()) attempt("the screenshot", [&] { write_screenshot(total_surfels); });
 
     SummaryInputs facts{frames_, stop_reason_, seconds, ctx_.description(), source_->describe(), gate_.skipped(),
-                        source_->dropped_frames(), output_errors_, times_, failed_frames_, recovered_frames_, refused_frames_, accuracy,
+                        source_->dropped_frames(), output_errors_, times_, failed_frames_, recovered_frames_, refused_frames_, retracked_frames_, accuracy,
                         snapshots, all_models, events_, params_.semantic, masks_.source(), masks_.detector()};
     write_text_atomically(out_dir_ / "summary.json", summary_json(facts).dump(2) + "\n");
     std::printf("%d frames in %.2f s (%.1f fps), %zu models, %zu surfels, %zu tracking failures, %zu frames skipped; "
@@ -576,6 +579,7 @@ class RunSession {
   std::vector<int> failed_frames_;     // lost: camera tracking failed or not yet relocalised
   std::vector<int> recovered_frames_;  // relocalised after a loss
   std::vector<int> refused_frames_;    // the tracked camera motion was refused (CameraCheckParams)
+  std::vector<int> retracked_frames_;  // tracked again after the segmentation (CameraRetrackParams)
   std::vector<std::string> events_;
   std::vector<std::string> output_errors_;
   size_t skipped_before_ = 0;  // gate_.skipped() at the previous frame

@@ -609,8 +609,10 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
     out.superpixels_ms = ms_between(sp_start, sp_end);
     out.superpixels_overlap_ms = std::max(0.0, ms_between(std::max(sp_start, gpu_start), std::min(sp_end, gpu_end)));
     const auto seg_start = Clock::now();
+    const std::vector<uint8_t> tracked_slots = slots_;
     segment(*superpixels, depth_m, rgb, excluded, active, out, spawned_slots);
     out.segment_ms = ms_between(seg_start, Clock::now());
+    if (camera == CameraState::kTracking) retrack_camera(tracked_slots, out);
   } else {
     label_all_background(depth_m, excluded);
   }
@@ -953,6 +955,70 @@ void CoFusion::update_poses(const std::vector<Model*>& active, CoFusionFrame& ou
                                                    m->surfels.T_world_model);
   }
   out.T_world_camera = T_world_camera_;
+}
+
+// CameraRetrackParams: whether this frame's segmentation took a surge of the pixels the camera
+// tracked with (`tracked_slots`) away from the background; keeps the baseline.
+bool CoFusion::retrack_surge(const std::vector<uint8_t>& tracked_slots, int background_slot, uint32_t resting) {
+  const CameraRetrackParams& p = params_.retrack;
+  const size_t n = slots_.size();
+  // A resting model's pixels are still the background's to track with.
+  const auto tracks = [&](uint8_t slot) { return slot == background_slot || (slot < 32 && (resting >> slot & 1u)); };
+  std::vector<uint8_t> taken(n, 0);
+  for (size_t i = 0; i < n; ++i) taken[i] = tracked_slots[i] == background_slot && !tracks(slots_[i]);
+  segmentation::label_components(taken.data(), intrinsics_.width, intrinsics_.height, std::optional<uint8_t>{0},
+                                 retrack_components_);
+  double taken_pixels = 0;
+  for (const auto& c : retrack_components_.components)
+    if (double(c.pixels) >= p.min_region_fraction * double(n)) taken_pixels += double(c.pixels);
+  const double share = taken_pixels / double(n);
+  std::vector<double> before(retrack_taken_.begin(), retrack_taken_.end());
+  retrack_taken_.push_back(share);
+  if (int(retrack_taken_.size()) > p.baseline_frames) retrack_taken_.pop_front();
+  double baseline = 0;
+  if (!before.empty()) {
+    std::nth_element(before.begin(), before.begin() + before.size() / 2, before.end());
+    baseline = before[before.size() / 2];
+  }
+  return share >= p.min_taken_fraction && share >= p.surge_factor * baseline;
+}
+
+// CameraRetrackParams: the background tracked again from its tracked motion with this frame's
+// labels (uploaded by the lifecycle); the camera and every moving model's world pose (their poses
+// in the camera stay) move by the correction.
+void CoFusion::retrack_camera(const std::vector<uint8_t>& tracked_slots, CoFusionFrame& out) {
+  const std::vector<Model*> live = live_models();
+  Model& bg = *live.front();
+  if (params_.retrack.min_taken_fraction <= 0 || tracked_slots.size() != slots_.size()) return;
+  // While the camera moves fast, what leaves the background is blur and new surfaces, not movers
+  // (the spawns' rule, LifecycleParams::spawn_max_camera_*), and the camera needs those pixels.
+  const uint32_t resting = resting_slots(live);  // this frame's (the segmentation may have spawned some)
+  if (!retrack_surge(tracked_slots, bg.slot, resting) || !spawn_camera_steady(bg)) return;
+  main_stream_.wait(labels_uploaded_);
+  gpu::CommandList c = bg.stream.begin();
+  const bool unclaimed = unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
+  const uint32_t keep = (1u << bg.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u) | resting;
+  motion_.mask_levels(c, live_.levels, bg.masked, labels_, keep, bg.track_rect);
+  bg.stream.wait(bg.stream.submit(std::move(c)));
+  std::vector<TrackingJob> job{{&bg.tracker, &bg.masked, &bg.prediction.levels, bg.motion, bg.track_rect,
+                                bg.stream.profile_group(), {}}};
+  track_together(main_stream_, job);
+  const TrackingResult& result = job.front().result;
+  if (result.failed) return;
+  const Eigen::Isometry3d T_world_previous = T_world_camera_ * bg.motion.inverse();
+  const Eigen::Isometry3d T_world_camera = orthonormalised(T_world_previous * result.T_reference_live);
+  const Eigen::Isometry3d correction = T_world_camera * T_world_camera_.inverse();
+  if (correction.translation().norm() > params_.retrack.max_correction_m ||
+      rotation_deg(correction) > params_.retrack.max_correction_deg)
+    return;
+  for (Model* m : live)
+    if (m->id != 0 && !m->resting) m->surfels.T_world_model = orthonormalised(correction * m->surfels.T_world_model);
+  T_world_camera_ = T_world_camera;
+  bg.motion = bg.last_motion = bg.T_prediction_live = result.T_reference_live;
+  bg.tracking = result;
+  out.T_world_camera = T_world_camera_;
+  out.camera_tracking = bg.tracking;
+  out.camera_retracked = true;
 }
 
 // Motion segmentation over the models' costs, then the lifecycle; excluded pixels are no model's

@@ -571,6 +571,19 @@ TEST(RunCommand, KeyframeGainConfigsAreReadAndChecked) {
   EXPECT_THAT(r.output, HasSubstr("keyframe_pull_min_inliers >= 0")) << r.output;
 }
 
+TEST(RunCommand, RetrackConfigIsReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  for (const std::string bad : {R"("min_taken_fraction": 1.5)", R"("min_region_fraction": -0.1)", R"("surge_factor": -1)",
+                                R"("baseline_frames": -2)", R"("max_correction_m": -0.01)", R"("max_correction_deg": -1)"}) {
+    const Result r = run_with_config(dir, "config.json", R"({"retrack": {)" + bad + "}}");
+    EXPECT_NE(r.exit_code, 0) << bad;
+    EXPECT_THAT(r.output, HasSubstr("retrack: min_taken_fraction and min_region_fraction must be in [0, 1]")) << r.output;
+  }
+  const Result ok = run_with_config(dir, "ok.json", R"({"retrack": {"min_taken_fraction": 0, "baseline_frames": 4}})",
+                                    "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 TEST(RunCommand, RollingShutterConfigIsReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   for (const std::string bad : {R"("colour_readout_s": 2)", R"("nominal_frame_interval_s": 0)"}) {
