@@ -75,6 +75,11 @@ std::optional<double> background_unexplained_share(const std::vector<float>& bac
 double scene_unexplained_share(const std::vector<float>& background_costs, const std::vector<uint8_t>& slots,
                                float max_cost_m);
 
+// Whether any of `pixels` (indices into a width x height image) has a pixel of `slots` equal to
+// `slot` within reach_px along its row or its column (the pixel itself not counted).
+bool within_reach_of_slot(const std::vector<size_t>& pixels, const std::vector<uint8_t>& slots, int width, int height,
+                          uint8_t slot, int reach_px);
+
 }  // namespace cofusion::slam::internal
 
 namespace cofusion::slam {

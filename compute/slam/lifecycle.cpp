@@ -570,13 +570,17 @@ CoFusion::SpawnPlan CoFusion::plan_spawns(const segmentation::SegmentationResult
 }
 
 bool CoFusion::near_mover(const std::vector<size_t>& pixels, const std::vector<uint8_t>& slots, int reach_px) const {
-  const int width = intrinsics_.width, height = intrinsics_.height;
+  return within_reach_of_slot(pixels, slots, intrinsics_.width, intrinsics_.height, kMoverSlot, reach_px);
+}
+
+bool internal::within_reach_of_slot(const std::vector<size_t>& pixels, const std::vector<uint8_t>& slots, int width,
+                                    int height, uint8_t slot, int reach_px) {
   for (size_t i : pixels) {
     const int x = int(i % size_t(width)), y = int(i / size_t(width));
     for (int d = 1; d <= reach_px; ++d) {
-      if ((x - d >= 0 && slots[i - size_t(d)] == kMoverSlot) || (x + d < width && slots[i + size_t(d)] == kMoverSlot) ||
-          (y - d >= 0 && slots[i - size_t(d) * size_t(width)] == kMoverSlot) ||
-          (y + d < height && slots[i + size_t(d) * size_t(width)] == kMoverSlot))
+      if ((x - d >= 0 && slots[i - size_t(d)] == slot) || (x + d < width && slots[i + size_t(d)] == slot) ||
+          (y - d >= 0 && slots[i - size_t(d) * size_t(width)] == slot) ||
+          (y + d < height && slots[i + size_t(d) * size_t(width)] == slot))
         return true;
     }
   }

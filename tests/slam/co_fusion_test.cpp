@@ -14,6 +14,7 @@
 #include "eval/segmentation_metrics.h"
 #include "eval/trajectory_metrics.h"
 #include "slam/co_fusion.h"
+#include "slam/co_fusion_model.h"
 #include "support/gpu_fixture.h"
 #include "support/test_support.h"
 #include "synthetic/synthetic_source.h"
@@ -695,6 +696,32 @@ TEST(RelativePoseHeldTest, TellsOneBodyFromTwoThatMovedApart) {
 
 // The window counts behind "near the object's geometry": against a direct count, windows
 // clipped at every border, an empty grid.
+// LifecycleParams::spawn_persist_mover_clearance_px: a small region within reach of a mover's
+// pixel along its row or column is beside the mover; diagonal neighbours, pixels beyond the reach
+// and the image's other side of a row (no wrap-around) are not.
+TEST(MoverClearanceTest, ReachesAlongRowsAndColumnsOnly) {
+  const int width = 20, height = 10;
+  const auto at = [&](int x, int y) { return size_t(y) * size_t(width) + size_t(x); };
+  std::vector<uint8_t> slots(size_t(width * height), 0);
+  slots[at(10, 5)] = slam::internal::kMoverSlot;
+  using slam::internal::within_reach_of_slot;
+  const uint8_t mover = slam::internal::kMoverSlot;
+  EXPECT_TRUE(within_reach_of_slot({at(2, 5)}, slots, width, height, mover, 8));    // 8 to the left
+  EXPECT_FALSE(within_reach_of_slot({at(1, 5)}, slots, width, height, mover, 8));   // 9 to the left
+  EXPECT_TRUE(within_reach_of_slot({at(10, 0)}, slots, width, height, mover, 5));   // 5 above it
+  EXPECT_FALSE(within_reach_of_slot({at(10, 0)}, slots, width, height, mover, 4));
+  EXPECT_TRUE(within_reach_of_slot({at(10, 9)}, slots, width, height, mover, 4));   // 4 below it
+  EXPECT_FALSE(within_reach_of_slot({at(11, 6)}, slots, width, height, mover, 8));  // diagonal
+  EXPECT_FALSE(within_reach_of_slot({at(0, 0), at(19, 9)}, slots, width, height, mover, 8));
+  EXPECT_TRUE(within_reach_of_slot({at(0, 0), at(13, 5)}, slots, width, height, mover, 3));  // one of them
+  EXPECT_FALSE(within_reach_of_slot({at(10, 5)}, slots, width, height, mover, 0));           // itself, reach 0
+  // At the end of a row the reach stops at the border: row 4's last pixel does not see row 5's first.
+  slots[at(10, 5)] = 0;
+  slots[at(0, 5)] = mover;
+  EXPECT_FALSE(within_reach_of_slot({at(19, 4)}, slots, width, height, mover, 3));
+  EXPECT_TRUE(within_reach_of_slot({at(3, 5)}, slots, width, height, mover, 3));
+}
+
 TEST(WindowCountTest, MatchesDirectCountsIncludingClippedWindows) {
   const int w = 13, h = 7;
   const auto marked = [](int x, int y) { return (x * 7 + y * 3) % 5 == 0; };
