@@ -579,9 +579,11 @@ TEST(RunCommand, RetrackConfigIsReadAndChecked) {
     EXPECT_NE(r.exit_code, 0) << bad;
     EXPECT_THAT(r.output, HasSubstr("retrack: min_taken_fraction and min_region_fraction must be in [0, 1]")) << r.output;
   }
-  const Result ok = run_with_config(dir, "ok.json", R"({"retrack": {"min_taken_fraction": 0, "baseline_frames": 4}})",
+  const Result ok = run_with_config(dir, "ok.json", R"({"retrack": {"min_taken_fraction": 0.01, "baseline_frames": 4}})",
                                     "--max-frames 3 ");
-  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  // The static scene's first frames take nothing from the camera: the list is there, empty.
+  EXPECT_EQ(read_json(dir / "out" / "summary.json")["camera"]["retracked_frames"], nlohmann::json::array());
 }
 
 TEST(RunCommand, RollingShutterConfigIsReadAndChecked) {
