@@ -609,7 +609,8 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
     out.superpixels_ms = ms_between(sp_start, sp_end);
     out.superpixels_overlap_ms = std::max(0.0, ms_between(std::max(sp_start, gpu_start), std::min(sp_end, gpu_end)));
     const auto seg_start = Clock::now();
-    const std::vector<uint8_t> tracked_slots = slots_;
+    // The labels the camera tracked with, for CameraRetrackParams (only when it is on).
+    const std::vector<uint8_t> tracked_slots = params_.retrack.min_taken_fraction > 0 ? slots_ : std::vector<uint8_t>{};
     segment(*superpixels, depth_m, rgb, excluded, active, out, spawned_slots);
     out.segment_ms = ms_between(seg_start, Clock::now());
     if (camera == CameraState::kTracking) retrack_camera(tracked_slots, out);
