@@ -348,15 +348,12 @@ Pose align_by_poses(const Trajectory& gt_in, const Trajectory& est_in, const Ass
 
 namespace {
 
-// The pose of a sorted trajectory nearest to t_s, or null when none lies within max_dt_s.
-const Pose* nearest_pose(const Trajectory& sorted, double t_s, double max_dt_s) {
-  const auto after = std::lower_bound(sorted.begin(), sorted.end(), t_s,
-                                      [](const TimedPose& p, double t) { return p.timestamp_s < t; });
-  const TimedPose* best = nullptr;
-  if (after != sorted.end()) best = &*after;
-  if (after != sorted.begin() && (!best || t_s - std::prev(after)->timestamp_s < best->timestamp_s - t_s))
-    best = &*std::prev(after);
-  return best && std::abs(best->timestamp_s - t_s) <= max_dt_s ? &best->T_world_x : nullptr;
+// The pose of a trajectory nearest to t_s (`stamps`: its sorted timestamps), or null when none lies
+// within max_dt_s.
+const Pose* nearest_pose(const Trajectory& trajectory, const std::vector<double>& stamps, double t_s, double max_dt_s) {
+  if (stamps.empty()) return nullptr;
+  const std::size_t k = find_closest_index(stamps, t_s);
+  return std::abs(stamps[k] - t_s) <= max_dt_s ? &trajectory[k].T_world_x : nullptr;
 }
 
 // ObjectTrajectoryErrors (5): the object's centre at the first stamp with both cameras, in that
@@ -365,13 +362,14 @@ void add_camera_relative_drift(const Trajectory& gt, const Trajectory& est, cons
                                const CameraTrajectories& cameras_in, const AssociationParams& association,
                                ObjectTrajectoryErrors& out) {
   const Trajectory gt_camera = sorted_unique(cameras_in.gt), est_camera = sorted_unique(cameras_in.est);
+  const std::vector<double> gt_stamps = stamps_of(gt_camera), est_stamps = stamps_of(est_camera);
   std::optional<Eigen::Vector3d> centre_in_model;  // the object's centre at the first stamp, in model coordinates
   std::vector<double> drift_m;
   for (std::size_t k = 0; k < matches.size(); ++k) {
     const TimedPose& g = gt[matches[k].first];
     const TimedPose& e = est[matches[k].second];
-    const Pose* gc = nearest_pose(gt_camera, g.timestamp_s, association.max_difference_s);
-    const Pose* ec = nearest_pose(est_camera, e.timestamp_s, association.max_difference_s);
+    const Pose* gc = nearest_pose(gt_camera, gt_stamps, g.timestamp_s, association.max_difference_s);
+    const Pose* ec = nearest_pose(est_camera, est_stamps, e.timestamp_s, association.max_difference_s);
     if (!gc || !ec) continue;
     const Pose T_camera_model = ec->inverse() * e.T_world_x;
     const Eigen::Vector3d centre_in_camera = (gc->inverse() * g.T_world_x).translation();

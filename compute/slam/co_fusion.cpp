@@ -187,12 +187,26 @@ void CoFusion::predict_model(Model& m, const gpu::TimelinePoint& preprocessed) {
   if (m.id != 0) rect = m.residual_rect.grown(params_.costs.object_margin_px);
   gpu::CommandList c = m.stream.begin();
   surfels_.predict(c, m.surfels, T_camera_model, m.prediction, prediction, frame_, rect);
-  const bool unclaimed = m.id == 0 && unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
-  // The background also tracks with the pixels of resting models: their surfels are still its own.
-  const uint32_t keep = (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u) | (m.id == 0 ? resting_slots_ : 0u);
-  if (params_.motion_segmentation) motion_.mask_levels(c, live_.levels, m.masked, labels_, keep, m.track_rect);
+  if (params_.motion_segmentation)
+    motion_.mask_levels(c, live_.levels, m.masked, labels_, tracked_slot_mask(m, resting_slots_), m.track_rect);
   // Tracking's submissions are not otherwise ordered after this one: the host waits.
   m.stream.wait(m.stream.submit(std::move(c), std::span(&preprocessed, 1)));
+}
+
+// The label slots whose pixels model m tracks with (bit s for slot s): its own; for the background
+// also the unclaimed pixels when they are many, and the pixels of the resting models (`resting`),
+// whose surfels are still its own.
+uint32_t CoFusion::tracked_slot_mask(const Model& m, uint32_t resting) const {
+  if (m.id != 0) return 1u << m.slot;
+  const bool unclaimed = unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
+  return (1u << m.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u) | resting;
+}
+
+// Model m's tracking from `guess`, with its masked live pixels (every live pixel without motion
+// segmentation: there is nothing to mask).
+TrackingJob CoFusion::tracking_job(Model& m, const Eigen::Isometry3d& guess) {
+  return TrackingJob{&m.tracker, params_.motion_segmentation ? &m.masked : &live_.levels, &m.prediction.levels, guess,
+                     m.track_rect, m.stream.profile_group(), {}};
 }
 
 // Whether the image's border cuts model m: its working rectangle reaches within
@@ -218,16 +232,11 @@ void CoFusion::choose_object_terms(Model& m) {
 // submission per Gauss-Newton iteration for all of them, which on a discrete GPU costs little more
 // than one model's.
 void CoFusion::track(const std::vector<Model*>& models) {
-  // Background-only runs track with every live pixel: there is nothing to mask.
-  const auto job = [&](Model& m, const Eigen::Isometry3d& guess) {
-    return TrackingJob{&m.tracker, params_.motion_segmentation ? &m.masked : &live_.levels, &m.prediction.levels, guess,
-                       m.track_rect, m.stream.profile_group(), {}};
-  };
   std::vector<TrackingJob> jobs;
   std::vector<gpu::TimelinePoint> predicted;  // each model's prediction and masks, on its own stream
   for (Model* m : models) {
     if (m->id != 0) choose_object_terms(*m);
-    jobs.push_back(job(*m, params_.slam.constant_velocity_guess ? m->last_motion : Eigen::Isometry3d::Identity()));
+    jobs.push_back(tracking_job(*m, params_.slam.constant_velocity_guess ? m->last_motion : Eigen::Isometry3d::Identity()));
     predicted.push_back(m->stream.last_submitted());
   }
   track_together(main_stream_, jobs, predicted);
@@ -241,7 +250,7 @@ void CoFusion::track(const std::vector<Model*>& models) {
   };
   for (size_t i = 0; i < models.size(); ++i)
     if (models[i]->guess_from_centroid_step && moving_guess(i)) {
-      still.push_back(job(*models[i], Eigen::Isometry3d::Identity()));
+      still.push_back(tracking_job(*models[i], Eigen::Isometry3d::Identity()));
       again.push_back(i);
     }
   if (!still.empty()) track_together(main_stream_, still);
@@ -997,12 +1006,9 @@ void CoFusion::retrack_camera(const std::vector<uint8_t>& tracked_slots, CoFusio
   if (!retrack_surge(tracked_slots, bg.slot, resting) || !spawn_camera_steady(bg)) return;
   main_stream_.wait(labels_uploaded_);
   gpu::CommandList c = bg.stream.begin();
-  const bool unclaimed = unclaimed_fraction_ > params_.lifecycle.background_tracks_unclaimed_above;
-  const uint32_t keep = (1u << bg.slot) | (unclaimed ? 1u << kUnclaimedSlot : 0u) | resting;
-  motion_.mask_levels(c, live_.levels, bg.masked, labels_, keep, bg.track_rect);
+  motion_.mask_levels(c, live_.levels, bg.masked, labels_, tracked_slot_mask(bg, resting), bg.track_rect);
   bg.stream.wait(bg.stream.submit(std::move(c)));
-  std::vector<TrackingJob> job{{&bg.tracker, &bg.masked, &bg.prediction.levels, bg.motion, bg.track_rect,
-                                bg.stream.profile_group(), {}}};
+  std::vector<TrackingJob> job{tracking_job(bg, bg.motion)};
   track_together(main_stream_, job);
   const TrackingResult& result = job.front().result;
   if (result.failed) return;

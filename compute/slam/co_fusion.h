@@ -539,6 +539,8 @@ class CoFusion {
   struct Model;
   Model& create_model(int slot, const Eigen::Isometry3d& T_world_model);
   void predict_model(Model& m, const gpu::TimelinePoint& preprocessed);
+  uint32_t tracked_slot_mask(const Model& m, uint32_t resting) const;
+  TrackingJob tracking_job(Model& m, const Eigen::Isometry3d& guess);
   // Tracks the models together (track_together), each with its own live pixels.
   void track(const std::vector<Model*>& models);
   bool cut_by_border(const Model& m) const;

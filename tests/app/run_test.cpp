@@ -502,6 +502,13 @@ Result run_with_config(const fs::path& dir, const std::string& name, const std::
                       (dir / "out").string());
 }
 
+// A run with `config` fails, and its output says `message`.
+void expect_config_rejected(const fs::path& dir, const std::string& config, const std::string& message) {
+  const Result r = run_with_config(dir, "config.json", config);
+  EXPECT_NE(r.exit_code, 0) << config;
+  EXPECT_THAT(r.output, HasSubstr(message)) << config << "\n" << r.output;
+}
+
 TEST(RunCommand, BadConfigNamesFileAndKey) {
   const fs::path dir = fresh_temp_dir();
   const Result r = run_with_config(dir, "config.json", R"({"tracker": {"photometric_wieght": 2}})");
@@ -574,11 +581,9 @@ TEST(RunCommand, KeyframeGainConfigsAreReadAndChecked) {
 TEST(RunCommand, RetrackConfigIsReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
   for (const std::string bad : {R"("min_taken_fraction": 1.5)", R"("min_region_fraction": -0.1)", R"("surge_factor": -1)",
-                                R"("baseline_frames": -2)", R"("max_correction_m": -0.01)", R"("max_correction_deg": -1)"}) {
-    const Result r = run_with_config(dir, "config.json", R"({"retrack": {)" + bad + "}}");
-    EXPECT_NE(r.exit_code, 0) << bad;
-    EXPECT_THAT(r.output, HasSubstr("retrack: min_taken_fraction and min_region_fraction must be in [0, 1]")) << r.output;
-  }
+                                R"("baseline_frames": -2)", R"("max_correction_m": -0.01)", R"("max_correction_deg": -1)"})
+    expect_config_rejected(dir, R"({"retrack": {)" + bad + "}}",
+                           "retrack: min_taken_fraction and min_region_fraction must be in [0, 1]");
   const Result ok = run_with_config(dir, "ok.json", R"({"retrack": {"min_taken_fraction": 0.01, "baseline_frames": 4}})",
                                     "--max-frames 3 ");
   ASSERT_EQ(ok.exit_code, 0) << ok.output;
@@ -652,29 +657,17 @@ TEST(RunCommand, MergeWindowStepIsReadAndChecked) {
 
 TEST(RunCommand, SpawnEvidenceSettingsAreReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
-  const Result bad = run_with_config(dir, "config.json", R"({"lifecycle": {"rising_min_area_fraction": 1.5}})");
-  EXPECT_NE(bad.exit_code, 0);
-  EXPECT_THAT(bad.output, HasSubstr("rising_min_area_fraction in [0, 1)")) << bad.output;
-  const Result negative = run_with_config(dir, "negative.json", R"({"lifecycle": {"rising_min_step_m": -0.001}})");
-  EXPECT_NE(negative.exit_code, 0);
-  const Result slide = run_with_config(dir, "slide.json", R"({"lifecycle": {"slide_min_fraction": 2}})");
-  EXPECT_NE(slide.exit_code, 0);
-  EXPECT_THAT(slide.output, HasSubstr("slide_min_fraction at most 1")) << slide.output;
-  const Result keep = run_with_config(dir, "keep.json", R"({"lifecycle": {"spawn_keep_area_fraction": 0.05}})");
-  EXPECT_NE(keep.exit_code, 0);
-  EXPECT_THAT(keep.output, HasSubstr("spawn_keep_area_fraction: must be in [0, spawn_min_area_fraction]")) << keep.output;
-  const Result persist = run_with_config(dir, "persist.json", R"({"lifecycle": {"spawn_persist_min_area_fraction": 1.5}})");
-  EXPECT_NE(persist.exit_code, 0);
-  EXPECT_THAT(persist.output, HasSubstr("spawn_persist_min_area_fraction: must be in [0, 1)")) << persist.output;
-  const Result clearance = run_with_config(dir, "clearance.json", R"({"lifecycle": {"spawn_persist_mover_clearance_px": -1}})");
-  EXPECT_NE(clearance.exit_code, 0);
-  EXPECT_THAT(clearance.output, HasSubstr("spawn_persist_mover_clearance_px: must be >= 0")) << clearance.output;
-  const Result takes = run_with_config(dir, "takes.json", R"({"costs": {"background_takes_unmodelled": "yes"}})");
-  EXPECT_NE(takes.exit_code, 0);
-  EXPECT_THAT(takes.output, HasSubstr("background_takes_unmodelled")) << takes.output;
-  const Result hold = run_with_config(dir, "hold.json", R"({"lifecycle": {"hold_spawn_candidates": 1}})");
-  EXPECT_NE(hold.exit_code, 0);
-  EXPECT_THAT(hold.output, HasSubstr("hold_spawn_candidates")) << hold.output;
+  expect_config_rejected(dir, R"({"lifecycle": {"rising_min_area_fraction": 1.5}})", "rising_min_area_fraction in [0, 1)");
+  expect_config_rejected(dir, R"({"lifecycle": {"rising_min_step_m": -0.001}})", "rising_*: costs must be >= 0");
+  expect_config_rejected(dir, R"({"lifecycle": {"slide_min_fraction": 2}})", "slide_min_fraction at most 1");
+  expect_config_rejected(dir, R"({"lifecycle": {"spawn_keep_area_fraction": 0.05}})",
+                         "spawn_keep_area_fraction: must be in [0, spawn_min_area_fraction]");
+  expect_config_rejected(dir, R"({"lifecycle": {"spawn_persist_min_area_fraction": 1.5}})",
+                         "spawn_persist_min_area_fraction: must be in [0, 1)");
+  expect_config_rejected(dir, R"({"lifecycle": {"spawn_persist_mover_clearance_px": -1}})",
+                         "spawn_persist_mover_clearance_px: must be >= 0");
+  expect_config_rejected(dir, R"({"costs": {"background_takes_unmodelled": "yes"}})", "background_takes_unmodelled");
+  expect_config_rejected(dir, R"({"lifecycle": {"hold_spawn_candidates": 1}})", "hold_spawn_candidates");
   const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"rising_min_step_m": 0, "slide_min_shift_px": 0, "spawn_keep_area_fraction": 0,
                                                                       "hold_spawn_candidates": false},
                                                         "costs": {"background_takes_unmodelled": false}})",
