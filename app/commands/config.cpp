@@ -209,6 +209,8 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("object_outline_photometric", c.object_outline_photometric)
       .field("object_outline_at_border", c.object_outline_at_border)
       .field("object_photometric_skip_rim", c.object_photometric_skip_rim)
+      .field("border_unpaired_cost", c.border_unpaired_cost)
+      .field("border_still_min_gain", c.border_still_min_gain)
       .field("object_photometric_weight", c.object_photometric_weight)
       .field("object_max_intensity_diff", c.object_max_intensity_diff)
       .field("object_icp_noise_reference_depth_m", c.object_icp_noise_reference_depth_m)
@@ -238,6 +240,9 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   if (!(c.slide_min_shift_px >= 0 && c.slide_min_intensity >= 0 && c.slide_min_fraction >= 0 && c.slide_min_fraction <= 1))
     throw Error(where + ".slide_*: must be >= 0, slide_min_fraction at most 1");
   if (!(c.object_photometric_weight >= 0)) throw Error(where + ".object_photometric_weight: must be >= 0");
+  if (!(c.border_unpaired_cost >= 0)) throw Error(where + ".border_unpaired_cost: must be >= 0");
+  if (!(c.border_still_min_gain >= 0 && c.border_still_min_gain < 1))
+    throw Error(where + ".border_still_min_gain: must be in [0, 1)");
   if (!(c.object_max_intensity_diff > 0)) throw Error(where + ".object_max_intensity_diff: must be > 0");
   if (!(c.object_icp_noise_reference_depth_m >= 0))
     throw Error(where + ".object_icp_noise_reference_depth_m: must be >= 0");

@@ -50,6 +50,13 @@ double mean_alignment_cost(const TrackingResult& t, double lambda) {
                    t.rgb_residuals, lambda);
 }
 
+// A tracking's last iteration's cost over the live pixels that could meet its model: each pair
+// at its mean cost per residual, each such pixel without a pair at `unpaired` (a truncated cost).
+double truncated_alignment_cost(const TrackingResult& t, double lambda, double unpaired) {
+  const double comparable = std::max<double>(t.icp_inliers, t.valid_live_pixels - t.occluding_live_pixels);
+  return mean_alignment_cost(t, lambda) * t.icp_inliers + unpaired * (comparable - t.icp_inliers);
+}
+
 // Bounding rectangle of each slot's pixels in a label map (empty for slots without pixels).
 std::vector<PixelRect> slot_rects(const std::vector<uint8_t>& slots, int width, int height) {
   std::vector<PixelRect> rects(256, PixelRect{width, height, 0, 0});
@@ -240,28 +247,38 @@ void CoFusion::track(const std::vector<Model*>& models) {
     predicted.push_back(m->stream.last_submitted());
   }
   track_together(main_stream_, jobs, predicted);
-  // A new model's velocity guess is its region's centroid step, which is off when the region grew
-  // or shrank between the frames: it is also tracked from no motion, and the alignment with the
-  // lower cost per residual is kept (the inlier counts mislead: a wrong pose can pair more pixels).
+  // A second start from no motion: for a new model, whose velocity guess is its region's centroid
+  // step (off when the region grew or shrank between the frames), the alignment with the lower
+  // cost per residual is kept (the inlier counts mislead: a wrong pose can pair more pixels); for
+  // an object cut by the border, the lower truncated cost (LifecycleParams::border_unpaired_cost).
   std::vector<TrackingJob> still;
   std::vector<size_t> again;
   const auto moving_guess = [&](size_t i) {
     return !jobs[i].T_reference_live_guess.isApprox(Eigen::Isometry3d::Identity());
   };
+  const double unpaired_factor = params_.lifecycle.border_unpaired_cost;
+  const auto at_border = [&](const Model& m) { return unpaired_factor > 0 && m.id != 0 && cut_by_border(m); };
   for (size_t i = 0; i < models.size(); ++i)
-    if (models[i]->guess_from_centroid_step && moving_guess(i)) {
+    if ((models[i]->guess_from_centroid_step || at_border(*models[i])) && moving_guess(i)) {
       still.push_back(tracking_job(*models[i], Eigen::Isometry3d::Identity()));
       again.push_back(i);
     }
   if (!still.empty()) track_together(main_stream_, still);
   for (size_t k = 0; k < again.size(); ++k) {
-    const TrackerParams& tp = models[again[k]]->tracker.params();
+    const Model& m = *models[again[k]];
+    const TrackerParams& tp = m.tracker.params();
     const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
     TrackingResult& moved = jobs[again[k]].result;
     const TrackingResult& from_still = still[k].result;
-    if (!from_still.failed &&
-        (moved.failed || mean_alignment_cost(from_still, lambda) < mean_alignment_cost(moved, lambda)))
-      moved = from_still;
+    if (from_still.failed) continue;
+    const double moved_mean = mean_alignment_cost(moved, lambda), still_mean = mean_alignment_cost(from_still, lambda);
+    bool take_still = moved.failed || still_mean < moved_mean;
+    if (!moved.failed && !m.guess_from_centroid_step) {
+      const double unpaired = unpaired_factor * 0.5 * (moved_mean + still_mean);
+      take_still = truncated_alignment_cost(from_still, lambda, unpaired) <
+                   (1.0 - params_.lifecycle.border_still_min_gain) * truncated_alignment_cost(moved, lambda, unpaired);
+    }
+    if (take_still) moved = from_still;
   }
   for (size_t i = 0; i < models.size(); ++i) {
     Model& m = *models[i];

@@ -618,6 +618,19 @@ TEST(RunCommand, ObjectPhotometricSettingsAreReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
+// LifecycleParams::border_unpaired_cost and border_still_min_gain (the second start of objects cut
+// by the image's border): read and checked.
+TEST(RunCommand, BorderSecondStartSettingsAreReadAndChecked) {
+  const fs::path dir = fresh_temp_dir();
+  expect_config_rejected(dir, R"({"lifecycle": {"border_unpaired_cost": -1}})", "border_unpaired_cost: must be >= 0");
+  for (const std::string bad : {"-0.1", "1"})
+    expect_config_rejected(dir, R"({"lifecycle": {"border_still_min_gain": )" + bad + "}}",
+                           "border_still_min_gain: must be in [0, 1)");
+  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"border_unpaired_cost": 0, "border_still_min_gain": 0.1}})",
+                                    "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 // The photometric reweighting options (TrackerParams::photometric_gradient_c, photometric_cauchy_k):
 // read, checked, and a run with both on (the reweighted reduction kernel) completes.
 TEST(RunCommand, PhotometricReweightingConfigsAreReadAndChecked) {
