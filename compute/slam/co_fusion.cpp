@@ -250,36 +250,25 @@ void CoFusion::track(const std::vector<Model*>& models) {
   // A second start from no motion: for a new model, whose velocity guess is its region's centroid
   // step (off when the region grew or shrank between the frames), the alignment with the lower
   // cost per residual is kept (the inlier counts mislead: a wrong pose can pair more pixels); for
-  // an object cut by the border, the lower truncated cost (LifecycleParams::border_unpaired_cost).
+  // an object cut by the border, the start from no motion where its truncated cost is clearly
+  // lower (LifecycleParams::border_unpaired_cost, border_still_min_gain).
   std::vector<TrackingJob> still;
   std::vector<size_t> again;
   const auto moving_guess = [&](size_t i) {
     return !jobs[i].T_reference_live_guess.isApprox(Eigen::Isometry3d::Identity());
   };
-  const double unpaired_factor = params_.lifecycle.border_unpaired_cost;
-  const auto at_border = [&](const Model& m) { return unpaired_factor > 0 && m.id != 0 && cut_by_border(m); };
+  const auto at_border = [&](const Model& m) {
+    return params_.lifecycle.border_unpaired_cost > 0 && m.id != 0 && cut_by_border(m);
+  };
   for (size_t i = 0; i < models.size(); ++i)
     if ((models[i]->guess_from_centroid_step || at_border(*models[i])) && moving_guess(i)) {
       still.push_back(tracking_job(*models[i], Eigen::Isometry3d::Identity()));
       again.push_back(i);
     }
   if (!still.empty()) track_together(main_stream_, still);
-  for (size_t k = 0; k < again.size(); ++k) {
-    const Model& m = *models[again[k]];
-    const TrackerParams& tp = m.tracker.params();
-    const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
-    TrackingResult& moved = jobs[again[k]].result;
-    const TrackingResult& from_still = still[k].result;
-    if (from_still.failed) continue;
-    const double moved_mean = mean_alignment_cost(moved, lambda), still_mean = mean_alignment_cost(from_still, lambda);
-    bool take_still = moved.failed || still_mean < moved_mean;
-    if (!moved.failed && !m.guess_from_centroid_step) {
-      const double unpaired = unpaired_factor * 0.5 * (moved_mean + still_mean);
-      take_still = truncated_alignment_cost(from_still, lambda, unpaired) <
-                   (1.0 - params_.lifecycle.border_still_min_gain) * truncated_alignment_cost(moved, lambda, unpaired);
-    }
-    if (take_still) moved = from_still;
-  }
+  for (size_t k = 0; k < again.size(); ++k)
+    if (second_start_wins(*models[again[k]], jobs[again[k]].result, still[k].result))
+      jobs[again[k]].result = still[k].result;
   for (size_t i = 0; i < models.size(); ++i) {
     Model& m = *models[i];
     m.tracking = std::move(jobs[i].result);
@@ -287,6 +276,21 @@ void CoFusion::track(const std::vector<Model*>& models) {
     m.tracked = true;
     m.motion = m.tracking.failed ? jobs[i].T_reference_live_guess : m.tracking.T_reference_live;
   }
+}
+
+// Whether model m's tracking from no motion (`still`) replaces the one from its guess (`moved`), as
+// track() explains.
+bool CoFusion::second_start_wins(const Model& m, const TrackingResult& moved, const TrackingResult& still) const {
+  if (still.failed) return false;
+  if (moved.failed) return true;
+  const TrackerParams& tp = m.tracker.params();
+  const double lambda = tp.use_photometric ? tp.photometric_weight : 0.0;
+  const double moved_mean = mean_alignment_cost(moved, lambda), still_mean = mean_alignment_cost(still, lambda);
+  if (m.guess_from_centroid_step) return still_mean < moved_mean;
+  const LifecycleParams& life = params_.lifecycle;
+  const double unpaired = life.border_unpaired_cost * 0.5 * (moved_mean + still_mean);
+  return truncated_alignment_cost(still, lambda, unpaired) <
+         (1.0 - life.border_still_min_gain) * truncated_alignment_cost(moved, lambda, unpaired);
 }
 
 // While the camera is lost nothing moves: every model keeps its world pose (its motion is the
