@@ -265,7 +265,18 @@ void CoFusion::track(const std::vector<Model*>& models) {
       still.push_back(tracking_job(*models[i], Eigen::Isometry3d::Identity()));
       again.push_back(i);
     }
+  // The border's second start runs the camera's iterations (fewer than an object's): it is there
+  // to find another basin.
+  std::vector<std::pair<Model*, TrackerParams>> restore;
+  for (size_t i : again)
+    if (!models[i]->guess_from_centroid_step) {
+      TrackerParams t = models[i]->tracker.params();
+      restore.emplace_back(models[i], t);
+      t.iterations_per_level = params_.slam.tracker.iterations_per_level;
+      models[i]->tracker.set_params(t);
+    }
   if (!still.empty()) track_together(main_stream_, still);
+  for (auto& [m, t] : restore) m->tracker.set_params(t);
   for (size_t k = 0; k < again.size(); ++k)
     if (second_start_wins(*models[again[k]], jobs[again[k]].result, still[k].result))
       jobs[again[k]].result = still[k].result;

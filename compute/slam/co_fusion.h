@@ -262,7 +262,9 @@ struct LifecycleParams {
   // the camera re-tracked: CameraRetrackParams), while the start from no motion stayed on it,
   // pairing 14-18 % more of its pixels at the same mean cost. Where both starts reach one
   // alignment (every other frame measured) the guess's is kept: taking the start from no motion on
-  // ties holds a moving object back (docs/experiments.md). 0 = one start, the guess.
+  // ties holds a moving object back (docs/experiments.md). The second start runs the camera's
+  // iterations (TrackerParams::iterations_per_level), fewer than an object's: it is there to find
+  // another basin. 0 = one start, the guess.
   double border_unpaired_cost = 9.0;
   double border_still_min_gain = 0.05;
   // Object models' photometric weight (TrackerParams::photometric_weight, the paper's lambda; the
@@ -408,7 +410,7 @@ struct RestParams {
 // "Where object drift comes from" and the entry after it): five_objects' camera 1.7 -> 1.35 mm and
 // its objects 1-3 drifting 2.2-3.9 mm at most instead of 3.9-6.4 at five noise seeds;
 // two_boxes_slow's boxes 3.6 and 5.0 mm instead of 7.4 and 5.8; TUM unchanged (no frame re-tracked);
-// Bonn crowd 2.78 cm (2.77 without), `--segmentation both` 2.91 cm (2.82). It waited for objects
+// Bonn crowd 2.80 cm (2.77 without), `--segmentation both` 2.91 cm (2.82). It waited for objects
 // cut by the border to take a second start (LifecycleParams::border_unpaired_cost): before that
 // five_objects' object 5 ran away with it. 0 = off.
 struct CameraRetrackParams {
