@@ -247,39 +247,7 @@ void CoFusion::track(const std::vector<Model*>& models) {
     predicted.push_back(m->stream.last_submitted());
   }
   track_together(main_stream_, jobs, predicted);
-  // A second start from no motion: for a new model, whose velocity guess is its region's centroid
-  // step (off when the region grew or shrank between the frames), the alignment with the lower
-  // cost per residual is kept (the inlier counts mislead: a wrong pose can pair more pixels); for
-  // an object cut by the border, the start from no motion where its truncated cost is clearly
-  // lower (LifecycleParams::border_unpaired_cost, border_still_min_gain).
-  std::vector<TrackingJob> still;
-  std::vector<size_t> again;
-  const auto moving_guess = [&](size_t i) {
-    return !jobs[i].T_reference_live_guess.isApprox(Eigen::Isometry3d::Identity());
-  };
-  const auto at_border = [&](const Model& m) {
-    return params_.lifecycle.border_unpaired_cost > 0 && m.id != 0 && cut_by_border(m);
-  };
-  for (size_t i = 0; i < models.size(); ++i)
-    if ((models[i]->guess_from_centroid_step || at_border(*models[i])) && moving_guess(i)) {
-      still.push_back(tracking_job(*models[i], Eigen::Isometry3d::Identity()));
-      again.push_back(i);
-    }
-  // The border's second start runs the camera's iterations (fewer than an object's): it is there
-  // to find another basin.
-  std::vector<std::pair<Model*, TrackerParams>> restore;
-  for (size_t i : again)
-    if (!models[i]->guess_from_centroid_step) {
-      TrackerParams t = models[i]->tracker.params();
-      restore.emplace_back(models[i], t);
-      t.iterations_per_level = params_.slam.tracker.iterations_per_level;
-      models[i]->tracker.set_params(t);
-    }
-  if (!still.empty()) track_together(main_stream_, still);
-  for (auto& [m, t] : restore) m->tracker.set_params(t);
-  for (size_t k = 0; k < again.size(); ++k)
-    if (second_start_wins(*models[again[k]], jobs[again[k]].result, still[k].result))
-      jobs[again[k]].result = still[k].result;
+  track_second_starts(models, jobs);
   for (size_t i = 0; i < models.size(); ++i) {
     Model& m = *models[i];
     m.tracking = std::move(jobs[i].result);
@@ -287,6 +255,35 @@ void CoFusion::track(const std::vector<Model*>& models) {
     m.tracked = true;
     m.motion = m.tracking.failed ? jobs[i].T_reference_live_guess : m.tracking.T_reference_live;
   }
+}
+
+// A second start from no motion, for the models of `jobs` (tracked from their guesses) that need
+// one; where second_start_wins, its result replaces the job's. For a new model, whose velocity
+// guess is its region's centroid step (off when the region grew or shrank between the frames), the
+// alignment with the lower cost per residual is kept (the inlier counts mislead: a wrong pose can
+// pair more pixels); for an object cut by the border, the start from no motion where its truncated
+// cost is clearly lower (LifecycleParams::border_unpaired_cost, border_still_min_gain). The
+// border's second start runs the camera's iterations (fewer than an object's): it is there to find
+// another basin.
+void CoFusion::track_second_starts(const std::vector<Model*>& models, std::vector<TrackingJob>& jobs) {
+  const auto needs_one = [&](size_t i) {
+    const Model& m = *models[i];
+    const bool at_border = params_.lifecycle.border_unpaired_cost > 0 && m.id != 0 && cut_by_border(m);
+    return (m.guess_from_centroid_step || at_border) && !jobs[i].T_reference_live_guess.isApprox(Eigen::Isometry3d::Identity());
+  };
+  std::vector<TrackingJob> still;
+  std::vector<size_t> again;
+  for (size_t i = 0; i < models.size(); ++i)
+    if (needs_one(i)) {
+      still.push_back(tracking_job(*models[i], Eigen::Isometry3d::Identity()));
+      if (!models[i]->guess_from_centroid_step) still.back().iterations_per_level = params_.slam.tracker.iterations_per_level;
+      again.push_back(i);
+    }
+  if (still.empty()) return;
+  track_together(main_stream_, still);
+  for (size_t k = 0; k < again.size(); ++k)
+    if (second_start_wins(*models[again[k]], jobs[again[k]].result, still[k].result))
+      jobs[again[k]].result = still[k].result;
 }
 
 // Whether model m's tracking from no motion (`still`) replaces the one from its guess (`moved`), as

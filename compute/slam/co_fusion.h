@@ -563,6 +563,7 @@ class CoFusion {
   void track(const std::vector<Model*>& models);
   bool cut_by_border(const Model& m) const;
   void choose_object_terms(Model& m);
+  void track_second_starts(const std::vector<Model*>& models, std::vector<TrackingJob>& jobs);
   bool second_start_wins(const Model& m, const TrackingResult& moved, const TrackingResult& still) const;
   void settle_models(const std::vector<Model*>& models, const Eigen::Isometry3d& camera_motion);
   void rest_if_still_fits(Model& m, const Eigen::Isometry3d& camera_motion, const LinearSystemSums& still);

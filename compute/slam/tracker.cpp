@@ -244,8 +244,10 @@ TrackingResult Tracker::track(gpu::Stream& stream, const std::vector<kernels::Fr
 
 void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<const gpu::TimelinePoint> waits) {
   std::vector<std::vector<long>> pixels;
+  std::vector<TrackerParams> params;
   std::vector<GaussNewton> loops;
   pixels.reserve(jobs.size());  // the loops keep references to these
+  params.reserve(jobs.size());
   loops.reserve(jobs.size());
   for (size_t j = 0; j < jobs.size(); ++j) {
     TrackingJob& job = jobs[j];
@@ -255,8 +257,17 @@ void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<
       if (jobs[i].tracker == job.tracker)
         throw Error("track_together: jobs " + std::to_string(i) + " and " + std::to_string(j) + " share a tracker");
     job.tracker->check_inputs(*job.live, *job.reference, job.T_reference_live_guess, "track_together");
+    params.push_back(job.tracker->params());
+    if (job.iterations_per_level) {
+      const std::vector<int>& n = *job.iterations_per_level;
+      if (n.size() < job.live->size() || std::any_of(n.begin(), n.end(), [](int k) { return k < 0; }))
+        throw Error("track_together: job " + std::to_string(j) + " has " + std::to_string(job.live->size()) +
+                    " pyramid levels; its iterations_per_level needs as many entries, none negative (it has " +
+                    std::to_string(n.size()) + ")");
+      params.back().iterations_per_level = *job.iterations_per_level;
+    }
     pixels.push_back(level_pixels(*job.live));
-    loops.emplace_back(pixels.back(), job.T_reference_live_guess, job.tracker->params());
+    loops.emplace_back(pixels.back(), job.T_reference_live_guess, params.back());
   }
   struct Pending {
     size_t job;

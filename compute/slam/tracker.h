@@ -95,7 +95,10 @@ struct TrackingJob {
   Eigen::Isometry3d T_reference_live_guess = Eigen::Isometry3d::Identity();
   std::optional<PixelRect> rect_level0;
   std::string profile_group;  // the kernel profile's group for its reductions; empty = the stream's
-  TrackingResult result;      // set by track_together
+  // Gauss-Newton iterations per level for this job instead of the tracker's
+  // TrackerParams::iterations_per_level (at least one entry per live level); the tracker is not changed.
+  std::optional<std::vector<int>> iterations_per_level;
+  TrackingResult result;  // set by track_together
 };
 
 // Tracker::track for every job at once, with the same results: the jobs' Gauss-Newton loops

@@ -983,6 +983,22 @@ TEST_F(Tracking, TrackedTogetherEqualsTrackedOneByOne) {
   // One tracker in two jobs would overwrite its own partial sums.
   std::vector<slam::TrackingJob> shared = {jobs[0], jobs[0]};
   EXPECT_THROW(slam::track_together(stream(), shared), Error);
+
+  // A job's own iteration counts: the result of a tracker with those counts, and the job's tracker
+  // keeps its own. Counts for fewer levels than the pyramid's, or negative ones, are refused.
+  slam::Tracker plain(ctx(), slam::TrackerParams{});
+  std::vector<slam::TrackingJob> overridden = {jobs[2]};
+  overridden[0].tracker = &plain;
+  overridden[0].iterations_per_level = few.iterations_per_level;
+  slam::track_together(stream(), overridden);
+  EXPECT_TRUE(overridden[0].result.T_reference_live.matrix() == alone[2].T_reference_live.matrix());
+  EXPECT_EQ(overridden[0].result.iterations, alone[2].iterations);
+  EXPECT_EQ(overridden[0].result.rgb_rms, alone[2].rgb_rms);
+  EXPECT_EQ(plain.params().iterations_per_level, slam::TrackerParams{}.iterations_per_level);
+  overridden[0].iterations_per_level = std::vector<int>{1, 4, 6};
+  EXPECT_THROW(slam::track_together(stream(), overridden), Error);
+  overridden[0].iterations_per_level = std::vector<int>{1, 4, -1, 10};
+  EXPECT_THROW(slam::track_together(stream(), overridden), Error);
 }
 
 // ---- TUM fr2/desk ------------------------------------------------------------------------------
