@@ -213,6 +213,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("border_still_min_gain", c.border_still_min_gain)
       .field("object_photometric_weight", c.object_photometric_weight)
       .field("object_max_intensity_diff", c.object_max_intensity_diff)
+      .field("object_photometric_huber_k", c.object_photometric_huber_k)
       .field("object_icp_noise_reference_depth_m", c.object_icp_noise_reference_depth_m)
       .field("object_iterations_per_level", c.object_iterations_per_level)
       .field("rising_min_cost_m", c.rising_min_cost_m)
@@ -244,6 +245,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
   if (!(c.border_still_min_gain >= 0 && c.border_still_min_gain < 1))
     throw Error(where + ".border_still_min_gain: must be in [0, 1)");
   if (!(c.object_max_intensity_diff > 0)) throw Error(where + ".object_max_intensity_diff: must be > 0");
+  if (!(c.object_photometric_huber_k >= 0)) throw Error(where + ".object_photometric_huber_k: must be >= 0");
   if (!(c.object_icp_noise_reference_depth_m >= 0))
     throw Error(where + ".object_icp_noise_reference_depth_m: must be >= 0");
   if (c.max_active_models < 1 || c.max_active_models > 31) throw Error(where + ".max_active_models: must be 1..31");

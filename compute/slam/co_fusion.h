@@ -283,6 +283,15 @@ struct LifecycleParams {
   // object 5, whose landing where its motion reverses any change tips, then drifted 14.4 mm
   // instead of 2.2 (docs/experiments.md, "Objects keep their strong edges").
   double object_max_intensity_diff = 0.3;
+  // Object models' robust photometric scale (TrackerParams::photometric_huber_k: residuals beyond
+  // this times the previous iteration's RMS residual get Huber weight delta / |r|; 0 = never
+  // robust). The background's 1.345 by default. Where only the outline holds an object (a face
+  // striped along its motion), its informative residuals are the large ones at the silhouette:
+  // at 3 the validation box that turns sideways drifts 3.4 mm at most instead of 5.0, and
+  // five_objects' object 5 2.3 mm instead of 7.1 at the scene's noise, but not over noise seeds
+  // (2.3-12.2 mm against 3.7-11.5), and one_object, leave_and_return and the validation's
+  // crossing box drift 0.6-1.2 mm more (docs/experiments.md, "Objects' robust photometric scale").
+  double object_photometric_huber_k = 1.345;
   // That ratio holds at this depth; object ICP pairs deeper than it count by their depth noise
   // (TrackerParams::icp_noise_reference_depth_m), so that far, noisy depth does not outweigh the
   // colour (a wall patch at 3.7 m tracked by its plane alone slides along it). 0 = unweighted.

@@ -613,7 +613,11 @@ TEST(RunCommand, ObjectPhotometricSettingsAreReadAndChecked) {
   const Result bound = run_with_config(dir, "bound.json", R"({"lifecycle": {"object_max_intensity_diff": 0}})");
   EXPECT_NE(bound.exit_code, 0);
   EXPECT_THAT(bound.output, HasSubstr("object_max_intensity_diff: must be > 0")) << bound.output;
-  const Result ok = run_with_config(dir, "ok.json", R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.5}})",
+  const Result huber = run_with_config(dir, "huber.json", R"({"lifecycle": {"object_photometric_huber_k": -1}})");
+  EXPECT_NE(huber.exit_code, 0);
+  EXPECT_THAT(huber.output, HasSubstr("object_photometric_huber_k: must be >= 0")) << huber.output;
+  const Result ok = run_with_config(dir, "ok.json",
+                                    R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.5, "object_photometric_huber_k": 3}})",
                                     "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
