@@ -102,6 +102,7 @@ void read_tracker(Section& s, slam::TrackerParams& c) {
       .field("max_intensity_diff", c.max_intensity_diff)
       .field("photometric_huber_k", c.photometric_huber_k)
       .field("icp_huber_k", c.icp_huber_k)
+      .field("outline_huber_scale", c.outline_huber_scale)
       .field("icp_noise_reference_depth_m", c.icp_noise_reference_depth_m)
       .field("photometric_gradient_c", c.photometric_gradient_c)
       .field("photometric_cauchy_k", c.photometric_cauchy_k)
@@ -214,6 +215,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
       .field("object_photometric_weight", c.object_photometric_weight)
       .field("object_max_intensity_diff", c.object_max_intensity_diff)
       .field("object_photometric_huber_k", c.object_photometric_huber_k)
+      .field("object_outline_huber_scale", c.object_outline_huber_scale)
       .field("object_icp_noise_reference_depth_m", c.object_icp_noise_reference_depth_m)
       .field("object_iterations_per_level", c.object_iterations_per_level)
       .field("rising_min_cost_m", c.rising_min_cost_m)
@@ -246,6 +248,7 @@ void read_lifecycle(Section& s, slam::LifecycleParams& c) {
     throw Error(where + ".border_still_min_gain: must be in [0, 1)");
   if (!(c.object_max_intensity_diff > 0)) throw Error(where + ".object_max_intensity_diff: must be > 0");
   if (!(c.object_photometric_huber_k >= 0)) throw Error(where + ".object_photometric_huber_k: must be >= 0");
+  if (!(c.object_outline_huber_scale >= 0)) throw Error(where + ".object_outline_huber_scale: must be >= 0");
   if (!(c.object_icp_noise_reference_depth_m >= 0))
     throw Error(where + ".object_icp_noise_reference_depth_m: must be >= 0");
   if (c.max_active_models < 1 || c.max_active_models > 31) throw Error(where + ".max_active_models: must be 1..31");

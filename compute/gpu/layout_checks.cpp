@@ -48,7 +48,8 @@ static_assert(sizeof(IcpRgbReduceParams) == 128 && offsetof(IcpRgbReduceParams, 
               offsetof(IcpRgbReduceParams, outline_occlusion_margin_m) == 112 && offsetof(IcpRgbReduceParams, icp_huber_delta_m) == 116 &&
               offsetof(IcpRgbReduceParams, live_intensity_gain) == 108 && offsetof(IcpRgbReduceParams, fx) == 48 &&
               offsetof(IcpRgbReduceParams, width) == 64 && offsetof(IcpRgbReduceParams, flags) == 84 &&
-              offsetof(IcpRgbReduceParams, rect_x0) == 88 && sizeof(IcpRgbReduceParams) <= 128);
+              offsetof(IcpRgbReduceParams, rect_x0y0) == 88 &&
+              offsetof(IcpRgbReduceParams, outline_rgb_delta) == 92 && offsetof(IcpRgbReduceParams, rect_width) == 96 && sizeof(IcpRgbReduceParams) <= 128);
 static_assert(ICP_RGB_OFFSET_VALID >= ICP_RGB_OFFSET_ICP + ICP_RGB_TERM_VALUES && ICP_RGB_OFFSET_RGB > ICP_RGB_OFFSET_VALID &&
               ICP_RGB_OFFSET_RGB + ICP_RGB_TERM_VALUES <= ICP_RGB_PARTIAL_STRIDE && ICP_RGB_PARTIAL_STRIDE == 64);
 // The intensity sums ride in the photometric term's last vec4 (after its count).

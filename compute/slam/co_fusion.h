@@ -292,6 +292,9 @@ struct LifecycleParams {
   // (2.3-12.2 mm against 3.7-11.5), and one_object, leave_and_return and the validation's
   // crossing box drift 0.6-1.2 mm more (docs/experiments.md, "Objects' robust photometric scale").
   double object_photometric_huber_k = 1.345;
+  // Object models' outline term's robust scale relative to their direct term's
+  // (TrackerParams::outline_huber_scale).
+  double object_outline_huber_scale = 1.0;
   // That ratio holds at this depth; object ICP pairs deeper than it count by their depth noise
   // (TrackerParams::icp_noise_reference_depth_m), so that far, noisy depth does not outweigh the
   // colour (a wall patch at 3.7 m tracked by its plane alone slides along it). 0 = unweighted.

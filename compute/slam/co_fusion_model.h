@@ -111,6 +111,7 @@ struct CoFusion::Model {
       t.photometric_weight = p.lifecycle.object_photometric_weight;
       t.max_intensity_diff = p.lifecycle.object_max_intensity_diff;
       t.photometric_huber_k = p.lifecycle.object_photometric_huber_k;
+      t.outline_huber_scale = p.lifecycle.object_outline_huber_scale;
       t.icp_noise_reference_depth_m = p.lifecycle.object_icp_noise_reference_depth_m;
       t.iterations_per_level = p.lifecycle.object_iterations_per_level;
     } else {

@@ -129,6 +129,7 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   p.min_normal_cos = static_cast<float>(std::cos(params_.max_normal_angle_deg * std::numbers::pi / 180.0));
   p.max_intensity_diff = static_cast<float>(params_.max_intensity_diff);
   p.rgb_huber_delta = static_cast<float>(scales.rgb);
+  p.outline_rgb_delta = static_cast<float>(scales.rgb * params_.outline_huber_scale);
   p.icp_huber_delta_m = static_cast<float>(scales.icp_m);
   p.icp_noise_reference_depth_m = static_cast<float>(params_.icp_noise_reference_depth_m);
   p.gradient_weight_c = static_cast<float>(params_.photometric_gradient_c);
@@ -140,8 +141,8 @@ uint32_t Tracker::record_reduction(gpu::CommandList& cmd, const kernels::FramePy
   p.live_intensity_gain = static_cast<float>(scales.live_gain);
   p.outline_occlusion_margin_m = static_cast<float>(params_.outline_occlusion_margin_m);
   const PixelRect r = rect ? rect->clamped(live.width, live.height) : PixelRect::full(live.width, live.height);
-  p.rect_x0 = static_cast<uint32_t>(r.x0);
-  p.rect_y0 = static_cast<uint32_t>(r.y0);
+  if (r.x0 > 0xFFFF || r.y0 > 0xFFFF) throw Error("Tracker: a tracking rectangle's origin beyond 65535 pixels");
+  p.rect_x0y0 = static_cast<uint32_t>(r.x0) | static_cast<uint32_t>(r.y0) << 16;
   p.rect_width = static_cast<uint32_t>(r.width());
   p.rect_height = static_cast<uint32_t>(r.height());
 

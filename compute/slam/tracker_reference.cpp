@@ -146,7 +146,7 @@ void add_outline_term(const HostLevel& live, const HostLevel& ref, const Eigen::
       if (!(std::abs(r) <= params.max_intensity_diff)) continue;
       const double gx = gain * b(live.gradient, gradient_x) / 255.0, gy = gain * b(live.gradient, gradient_y) / 255.0;
       const Eigen::Vector3d G = R * intensity_jacobian(gx, gy, k, x_live);
-      const double sw = photometric_robust_sqrt_weight(r, scales.rgb, params) *
+      const double sw = photometric_robust_sqrt_weight(r, scales.rgb * params.outline_huber_scale, params) *
                         gradient_sqrt_weight(gx, gy, params.photometric_gradient_c) *
                         tile_sqrt_weight(tile_weights, static_cast<int>(std::floor(x + 0.5)),
                                          static_cast<int>(std::floor(y + 0.5)), w, h);

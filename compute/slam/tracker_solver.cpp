@@ -61,6 +61,7 @@ void validate(const TrackerParams& p, const std::string& what) {
   if (!(p.max_intensity_diff > 0)) bad("max_intensity_diff must be > 0");
   if (!(p.photometric_huber_k >= 0)) bad("photometric_huber_k must be >= 0");
   if (!(p.icp_huber_k >= 0)) bad("icp_huber_k must be >= 0");
+  if (!(p.outline_huber_scale >= 0)) bad("outline_huber_scale must be >= 0");
   if (!(p.max_exposure_gain >= 1 && std::isfinite(p.max_exposure_gain))) bad("max_exposure_gain must be >= 1");
   if (!(p.photometric_cauchy_k >= 0 && std::isfinite(p.photometric_cauchy_k))) bad("photometric_cauchy_k must be >= 0");
   if (!(p.photometric_gradient_c >= 0 && std::isfinite(p.photometric_gradient_c))) bad("photometric_gradient_c must be >= 0");

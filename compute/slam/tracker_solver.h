@@ -60,6 +60,11 @@ struct TrackerParams {
   // silhouette, so the rim's fused colours mix the object's with what lay beside it. CoFusion turns
   // it on for object models (LifecycleParams::object_photometric_skip_rim).
   bool photometric_skip_rim = false;
+  // The outline term's robust scale relative to the live -> model term's (photometric_huber_k or
+  // photometric_cauchy_k times the RMS residual, times this; 0 = not robust). Its informative
+  // residuals are the large ones at the silhouette, where the model's outline meets the
+  // background, which the robust weight caps.
+  double outline_huber_scale = 1.0;
   // Outline term: a model pixel where the live depth is nearer than the model point by more than
   // this is occluded (another object in front) and left out.
   double outline_occlusion_margin_m = 0.03;

@@ -467,7 +467,12 @@ struct IcpRgbReduceParams {
   uint flags;                  // ICP_RGB_FLAG_*
   // Only live pixels in [rect_x0, rect_x0 + rect_width) x [rect_y0, rect_y0 + rect_height) take
   // part (a model's own pixels; the rest of its masked live map is invalid anyway).
-  uint rect_x0, rect_y0, rect_width, rect_height;
+  // rect_x0y0 = rect_x0 | rect_y0 << 16 (the push constants' 128 bytes are all used).
+  uint rect_x0y0;
+  // Outline term: its residuals' robust scale, as rgb_huber_delta is the live -> reference term's
+  // (TrackerParams::outline_huber_scale times it).
+  float outline_rgb_delta;
+  uint rect_width, rect_height;
   // Photometric: residuals beyond this (intensity / 255) get Huber weight delta / |r| (the sums
   // then hold w J^T J, w J^T r, w r^2); with ICP_RGB_FLAG_CAUCHY it is Cauchy's scale; 0 = none.
   float rgb_huber_delta;

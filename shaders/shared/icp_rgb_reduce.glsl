@@ -71,13 +71,15 @@ float tile_sqrt_weight(int x, int y) {
   return sqrt(tile_weights[icp_rgb_tile(x, y, int(p.width), int(p.height))]);
 }
 // A photometric residual's sqrt weight: the robust weight (ICP_RGB_FLAG_CAUCHY: Cauchy's, else
-// Huber's) times the gradient weight and the weight of the tile of live pixel (x, y).
-float photometric_sqrt_weight(float r, vec2 g, int x, int y) {
-  const float robust = (p.flags & ICP_RGB_FLAG_CAUCHY) != 0u ? cauchy_sqrt_weight(r, p.rgb_huber_delta)
-                                                             : huber_sqrt_weight(r, p.rgb_huber_delta);
+// Huber's, with scale delta) times the gradient weight and the weight of the tile of live pixel (x, y).
+float photometric_sqrt_weight(float r, float delta, vec2 g, int x, int y) {
+  const float robust = (p.flags & ICP_RGB_FLAG_CAUCHY) != 0u ? cauchy_sqrt_weight(r, delta) : huber_sqrt_weight(r, delta);
   return robust * gradient_sqrt_weight(g) * tile_sqrt_weight(x, y);
 }
 #endif
+// The rectangle's origin (IcpRgbReduceParams::rect_x0y0).
+uint rect_x0() { return p.rect_x0y0 & 0xFFFFu; }
+uint rect_y0() { return p.rect_x0y0 >> 16u; }
 // Weights of the pixels (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1) at fraction a.
 vec4 bilinear_weights(vec2 a) {
   return vec4((1.0 - a.x) * (1.0 - a.y), a.x * (1.0 - a.y), (1.0 - a.x) * a.y, a.x * a.y);
@@ -126,7 +128,7 @@ void main() {
   const uint stride = gl_NumWorkGroups.x * ICP_RGB_GROUP_SIZE;
   const uint stride_rows = stride / p.rect_width, stride_cols = stride % p.rect_width;
   for (RectWalk rw = rect_walk_start(gl_GlobalInvocationID.x); rw.ri < n; rect_walk_step(rw, stride, stride_rows, stride_cols)) {
-    const uint live_x = p.rect_x0 + rw.col, live_y = p.rect_y0 + rw.row;
+    const uint live_x = rect_x0() + rw.col, live_y = rect_y0() + rw.row;
     const uint i = live_y * p.width + live_x;  // live pixel
     const vec4 v_live = texel_vec4(live_vertex, i);
     if (v_live.w <= 0.0) continue;
@@ -181,7 +183,7 @@ void main() {
             g = 0.5 * (g + p.live_intensity_gain * texel_vec2(live_gradient, i) * (1.0 / 255.0));
           const vec3 dI_dq = intensity_jacobian(g, q);
 #ifdef ICP_RGB_REWEIGHTED
-          const float sw = photometric_sqrt_weight(r, g, int(live_x), int(live_y));
+          const float sw = photometric_sqrt_weight(r, p.rgb_huber_delta, g, int(live_x), int(live_y));
 #else
           const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
 #endif
@@ -199,7 +201,7 @@ void main() {
     const mat3 Rt = transpose(R);
     const vec3 t_inv = -(Rt * t);
     for (RectWalk rw = rect_walk_start(gl_GlobalInvocationID.x); rw.ri < n; rect_walk_step(rw, stride, stride_rows, stride_cols)) {
-      const int ju = int(p.rect_x0 + rw.col), jv = int(p.rect_y0 + rw.row);
+      const int ju = int(rect_x0() + rw.col), jv = int(rect_y0() + rw.row);
       const uint j = uint(jv) * p.width + uint(ju);  // reference pixel
       const vec4 v_ref = texel_vec4(ref_vertex, j);
       if (v_ref.w <= 0.0) continue;
@@ -223,9 +225,9 @@ void main() {
                       wts.z * texel_vec2(live_gradient, i01) + wts.w * texel_vec2(live_gradient, i11)) * (1.0 / 255.0);
       const vec3 G = R * intensity_jacobian(g, x_live);
 #ifdef ICP_RGB_REWEIGHTED
-      const float sw = photometric_sqrt_weight(r, g, int(floor(u + 0.5)), int(floor(v + 0.5)));
+      const float sw = photometric_sqrt_weight(r, p.outline_rgb_delta, g, int(floor(u + 0.5)), int(floor(v + 0.5)));
 #else
-      const float sw = huber_sqrt_weight(r, p.rgb_huber_delta);
+      const float sw = huber_sqrt_weight(r, p.outline_rgb_delta);
 #endif
       accumulate(rgb, -sw * G, -sw * cross(v_ref.xyz, G), sw * r);
     }

@@ -616,8 +616,12 @@ TEST(RunCommand, ObjectPhotometricSettingsAreReadAndChecked) {
   const Result huber = run_with_config(dir, "huber.json", R"({"lifecycle": {"object_photometric_huber_k": -1}})");
   EXPECT_NE(huber.exit_code, 0);
   EXPECT_THAT(huber.output, HasSubstr("object_photometric_huber_k: must be >= 0")) << huber.output;
+  const Result outline = run_with_config(dir, "outline.json", R"({"lifecycle": {"object_outline_huber_scale": -1}})");
+  EXPECT_NE(outline.exit_code, 0);
+  EXPECT_THAT(outline.output, HasSubstr("object_outline_huber_scale: must be >= 0")) << outline.output;
   const Result ok = run_with_config(dir, "ok.json",
-                                    R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.5, "object_photometric_huber_k": 3}})",
+                                    R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.5, "object_photometric_huber_k": 3,
+                                                     "object_outline_huber_scale": 3}})",
                                     "--max-frames 3 ");
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }

@@ -377,6 +377,29 @@ TEST_F(Tracking, GpuSumsMatchCpuReference) {
       }
     }
 
+    // The outline term's own robust scale (TrackerParams::outline_huber_scale), with Huber's and
+    // Cauchy's weight and through the reweighted kernel (gradient weights): GPU and CPU alike; the
+    // same residuals, the large ones weighed down less at a wider scale; 1 is the shared scale.
+    for (const bool reweighted : {false, true}) {
+      slam::TrackerParams shared = params;
+      shared.outline_photometric = true;
+      shared.photometric_gradient_c = reweighted ? 0.05 : 0.0;
+      shared.photometric_cauchy_k = reweighted ? 2.385 : 0.0;
+      slam::TrackerParams wide = shared;
+      wide.outline_huber_scale = 3.0;
+      const slam::IterationScales scales{0, 0.01, 1};
+      const auto [g, c] = gpu_and_cpu(wide, std::nullopt, scales);
+      const auto [g_shared, c_shared] = gpu_and_cpu(shared, std::nullopt, scales);
+      const std::string label = what + " outline scale 3" + (reweighted ? ", reweighted" : "");
+      expect_sums_near(g.rgb, c.rgb, 2e-3, label);
+      expect_sums_near(g_shared.rgb, c_shared.rgb, 2e-3, label + " (scale 1)");
+      EXPECT_EQ(c.icp, cpu.icp) << label;
+      EXPECT_EQ(c.rgb[28], c_shared.rgb[28]) << label;
+      if (s.w >= 160) {
+        EXPECT_GT(c.rgb[27], 1.02 * c_shared.rgb[27]) << label << ": no residual was weighed down less";
+      }
+    }
+
     // Tile weights on the photometric residuals (TrackerParams::photometric_tile_weights), on the
     // direct and the outline term: tiles weighted 0, 0.25 and 1 in turn, GPU and CPU alike; the
     // same residuals, their sum of squares down; the ICP term untouched.
