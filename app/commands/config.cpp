@@ -364,7 +364,8 @@ PipelineConfig load_config(const std::filesystem::path& path) {
         .field("min_instance_area_fraction", config.semantic.min_instance_area_fraction)
         .field("join_min_iou", config.semantic.join_min_iou)
         .field("exclude_margin_px", config.semantic.exclude_margin_px)
-        .field("resting_max_unexplained_fraction", config.semantic.resting_max_unexplained_fraction);
+        .field("resting_max_unexplained_fraction", config.semantic.resting_max_unexplained_fraction)
+        .field("track_woken", config.semantic.track_woken);
     if (config.semantic.exclude_margin_px < 0 || config.semantic.exclude_margin_px > 64)
       throw Error(q.where() + ".exclude_margin_px: must be 0..64");
     if (config.semantic.confirm_frames < 1 ||

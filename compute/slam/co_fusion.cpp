@@ -649,8 +649,12 @@ CoFusionFrame CoFusion::process(const float* depth_m, const uint8_t* input_rgb, 
     const auto seg_start = Clock::now();
     // The labels the camera tracked with, for CameraRetrackParams (only when it is on).
     const std::vector<uint8_t> tracked_slots = params_.retrack.min_taken_fraction > 0 ? slots_ : std::vector<uint8_t>{};
+    std::vector<Model*> were_resting;
+    for (Model* m : active)
+      if (m->resting) were_resting.push_back(m);
     segment(*superpixels, depth_m, rgb, excluded, active, out, spawned_slots);
     out.segment_ms = ms_between(seg_start, Clock::now());
+    track_woken(were_resting, out);
     if (camera == CameraState::kTracking) retrack_camera(tracked_slots, out);
   } else {
     label_all_background(depth_m, excluded);
@@ -1020,6 +1024,44 @@ bool CoFusion::retrack_surge(const std::vector<uint8_t>& tracked_slots, int back
     baseline = before[before.size() / 2];
   }
   return share >= p.min_taken_fraction && share >= p.surge_factor * baseline;
+}
+
+// SemanticParams::track_woken: each of `were_resting` that this frame's lifecycle woke (it has
+// moved since it rested) is tracked at once with its pixels of this frame, from where it rested;
+// its pose in this frame, and the surfels it fuses now, then follow the motion it made while it
+// was still held at rest (else both wait for the next frame).
+void CoFusion::track_woken(const std::vector<Model*>& were_resting, CoFusionFrame& out) {
+  std::vector<Model*> woken;
+  for (Model* m : were_resting)
+    if (!m->resting && m->state == ModelState::kActive && m->slot >= 0 && m->slot < kSlots) woken.push_back(m);
+  if (woken.empty() || !params_.semantic.track_woken || camera_history_.empty() || !camera_history_.back()) return;
+  main_stream_.wait(labels_uploaded_);
+  const std::vector<PixelRect> rects = slot_rects(slots_, intrinsics_.width, intrinsics_.height);
+  std::vector<TrackingJob> jobs;
+  for (Model* m : woken) {
+    m->track_rect = rects[size_t(m->slot)];
+    gpu::CommandList c = m->stream.begin();
+    motion_.mask_levels(c, live_.levels, m->masked, labels_, 1u << m->slot, m->track_rect);
+    m->stream.wait(m->stream.submit(std::move(c)));
+    choose_object_terms(*m);
+    jobs.push_back(tracking_job(*m, m->motion));
+  }
+  track_together(main_stream_, jobs);
+  // Its prediction was made at its rest pose from the previous frame's camera.
+  const Eigen::Isometry3d T_world_previous = *camera_history_.back();
+  for (size_t k = 0; k < woken.size(); ++k) {
+    Model& m = *woken[k];
+    const TrackingResult& r = jobs[k].result;
+    if (r.failed) continue;
+    const Eigen::Isometry3d T_previous_model = T_world_previous.inverse() * m.surfels.T_world_model;
+    const Eigen::Isometry3d T_world_model = orthonormalised(T_world_camera_ * r.T_reference_live.inverse() * T_previous_model);
+    const double moved_mm = 1000.0 * (T_world_model.translation() - m.surfels.T_world_model.translation()).norm();
+    m.surfels.T_world_model = T_world_model;
+    m.motion = m.last_motion = m.T_prediction_live = r.T_reference_live;
+    m.tracking = r;
+    out.events.push_back("frame " + std::to_string(frame_) + ": model " + std::to_string(m.id) + " tracked from its rest (" +
+                         std::to_string(int(std::lround(moved_mm))) + " mm)");
+  }
 }
 
 // CameraRetrackParams: the background tracked again from its tracked motion with this frame's

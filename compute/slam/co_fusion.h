@@ -609,6 +609,7 @@ class CoFusion {
   // CameraRetrackParams: `tracked_slots` are the labels the camera tracked with.
   bool retrack_surge(const std::vector<uint8_t>& tracked_slots, int background_slot, uint32_t resting);
   void retrack_camera(const std::vector<uint8_t>& tracked_slots, CoFusionFrame& out);
+  void track_woken(const std::vector<Model*>& were_resting, CoFusionFrame& out);
   void segment(const segmentation::Superpixels& superpixels, const float* depth_m, const uint8_t* rgb,
                const std::vector<uint8_t>& excluded, std::vector<Model*>& active, CoFusionFrame& out,
                std::vector<int>& spawned_slots);

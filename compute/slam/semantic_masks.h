@@ -80,6 +80,10 @@ struct SemanticParams {
   // fr1/rpy), where the whole prediction is off. An instance that fails the test at its spawn
   // spawns awake.
   double resting_max_unexplained_fraction = 0.5;
+  // A resting model that starts moving is tracked at once in the frame it wakes, with that frame's
+  // pixels, so that its pose there (and what it fuses) follows what it moved while still held at
+  // rest; else it is tracked from the next frame on.
+  bool track_woken = true;
 };
 
 // Throws cofusion::Error unless `frame` has `pixels` ids.

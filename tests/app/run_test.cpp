@@ -626,6 +626,14 @@ TEST(RunCommand, ObjectPhotometricSettingsAreReadAndChecked) {
   EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
+// SemanticParams::track_woken: read (a wrong type names the key), and a run with it off works.
+TEST(RunCommand, TrackWokenSettingIsRead) {
+  const fs::path dir = fresh_temp_dir();
+  expect_config_rejected(dir, R"({"semantic": {"track_woken": 3}})", "track_woken");
+  const Result ok = run_with_config(dir, "ok.json", R"({"semantic": {"track_woken": false}})", "--max-frames 3 ");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
 // LifecycleParams::border_unpaired_cost and border_still_min_gain (the second start of objects cut
 // by the image's border): read and checked.
 TEST(RunCommand, BorderSecondStartSettingsAreReadAndChecked) {

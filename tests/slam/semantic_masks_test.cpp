@@ -390,6 +390,15 @@ TEST_F(SemanticScenes, ARecognisedBoxRestsUntilItMovesThenIsTracked) {
   std::printf("  box centre off by %.1f mm after %.0f mm of travel\n", 1000 * drift_m,
               1000 * (true_motion(last) * centre - centre).norm());
   EXPECT_LE(drift_m, 0.02);
+  // It was tracked in the very frame it woke (SemanticParams::track_woken), so its pose there
+  // already follows the box, which moved while the model was held at rest.
+  const auto at_wake = std::find_if(box->trajectory.begin(), box->trajectory.end(), [&](const auto& p) { return p.first == woke; });
+  ASSERT_NE(at_wake, box->trajectory.end());
+  const double wake_off_m = ((at_wake->second * T_first.inverse()) * centre - true_motion(woke) * centre).norm();
+  const double rest_off_m = (true_motion(woke) * centre - centre).norm();
+  std::printf("  at its wake (frame %d) the box centre is off by %.1f mm; %.1f mm at its rest pose\n", woke,
+              1000 * wake_off_m, 1000 * rest_off_m);
+  EXPECT_LT(wake_off_m, 0.5 * rest_off_m);
   EXPECT_LE(eval::compute_ate(seq.camera_trajectory(), camera).translation_m.rmse, 0.01);
   // The last frame's box pixels are the box model's.
   const cv::Mat gt = seq.render(seq.size() - 1).instance_ids;
