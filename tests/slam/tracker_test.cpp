@@ -946,6 +946,9 @@ TEST_F(Tracking, MismatchedInputsThrow) {
   EXPECT_THROW(tracker_->track(stream(), a.levels, a.levels, Isometry3d::Identity()), Error);
   bad.max_correspondence_distance_m = -1;
   EXPECT_THROW(tracker_->set_params(bad), Error);
+  slam::TrackerParams negative_outline_scale;
+  negative_outline_scale.outline_huber_scale = -1;
+  EXPECT_THROW(tracker_->set_params(negative_outline_scale), Error);
   const size_t tiles = ICP_RGB_TILES_X * ICP_RGB_TILES_Y;
   EXPECT_THROW(tracker_->set_photometric_tile_weights(std::vector<float>(tiles - 1, 1.0f)), Error);
   std::vector<float> weights(tiles, 1.0f);
