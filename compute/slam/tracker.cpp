@@ -260,12 +260,12 @@ void track_together(gpu::Stream& stream, std::span<TrackingJob> jobs, std::span<
     job.tracker->check_inputs(*job.live, *job.reference, job.T_reference_live_guess, "track_together");
     params.push_back(job.tracker->params());
     if (job.iterations_per_level) {
-      const std::vector<int>& n = *job.iterations_per_level;
-      if (n.size() < job.live->size() || std::any_of(n.begin(), n.end(), [](int k) { return k < 0; }))
-        throw Error("track_together: job " + std::to_string(j) + " has " + std::to_string(job.live->size()) +
-                    " pyramid levels; its iterations_per_level needs as many entries, none negative (it has " +
-                    std::to_string(n.size()) + ")");
+      const std::string what = "track_together: job " + std::to_string(j);
       params.back().iterations_per_level = *job.iterations_per_level;
+      validate(params.back(), what);
+      if (job.iterations_per_level->size() < job.live->size())
+        throw Error(what + ": " + std::to_string(job.live->size()) + " pyramid levels but its iterations_per_level has " +
+                    std::to_string(job.iterations_per_level->size()));
     }
     pixels.push_back(level_pixels(*job.live));
     loops.emplace_back(pixels.back(), job.T_reference_live_guess, params.back());

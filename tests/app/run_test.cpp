@@ -604,21 +604,12 @@ TEST(RunCommand, RollingShutterConfigIsReadAndChecked) {
 
 TEST(RunCommand, ObjectPhotometricSettingsAreReadAndChecked) {
   const fs::path dir = fresh_temp_dir();
-  const Result r = run_with_config(dir, "config.json", R"({"lifecycle": {"object_photometric_weight": -0.1}})");
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_THAT(r.output, HasSubstr("object_photometric_weight: must be >= 0")) << r.output;
-  const Result depth = run_with_config(dir, "depth.json", R"({"lifecycle": {"object_icp_noise_reference_depth_m": -1}})");
-  EXPECT_NE(depth.exit_code, 0);
-  EXPECT_THAT(depth.output, HasSubstr("object_icp_noise_reference_depth_m: must be >= 0")) << depth.output;
-  const Result bound = run_with_config(dir, "bound.json", R"({"lifecycle": {"object_max_intensity_diff": 0}})");
-  EXPECT_NE(bound.exit_code, 0);
-  EXPECT_THAT(bound.output, HasSubstr("object_max_intensity_diff: must be > 0")) << bound.output;
-  const Result huber = run_with_config(dir, "huber.json", R"({"lifecycle": {"object_photometric_huber_k": -1}})");
-  EXPECT_NE(huber.exit_code, 0);
-  EXPECT_THAT(huber.output, HasSubstr("object_photometric_huber_k: must be >= 0")) << huber.output;
-  const Result outline = run_with_config(dir, "outline.json", R"({"lifecycle": {"object_outline_huber_scale": -1}})");
-  EXPECT_NE(outline.exit_code, 0);
-  EXPECT_THAT(outline.output, HasSubstr("object_outline_huber_scale: must be >= 0")) << outline.output;
+  expect_config_rejected(dir, R"({"lifecycle": {"object_photometric_weight": -0.1}})", "object_photometric_weight: must be >= 0");
+  expect_config_rejected(dir, R"({"lifecycle": {"object_icp_noise_reference_depth_m": -1}})",
+                         "object_icp_noise_reference_depth_m: must be >= 0");
+  expect_config_rejected(dir, R"({"lifecycle": {"object_max_intensity_diff": 0}})", "object_max_intensity_diff: must be > 0");
+  expect_config_rejected(dir, R"({"lifecycle": {"object_photometric_huber_k": -1}})", "object_photometric_huber_k: must be >= 0");
+  expect_config_rejected(dir, R"({"lifecycle": {"object_outline_huber_scale": -1}})", "object_outline_huber_scale: must be >= 0");
   const Result ok = run_with_config(dir, "ok.json",
                                     R"({"lifecycle": {"object_photometric_weight": 1, "object_max_intensity_diff": 0.5, "object_photometric_huber_k": 3,
                                                      "object_outline_huber_scale": 3}})",
